@@ -1,0 +1,48 @@
+#!/usr/bin/env bash
+# Install every Debian package maskadapt needs, then configure and build it (Release) in build/.
+# Idempotent: packages already present are not reinstalled, and an up-to-date build does nothing.
+#
+#   scripts/setup.sh               # core packages + build
+#   scripts/setup.sh --with-torch  # also libtorch-dev (~800 MB) for the LibTorch benchmark peers
+#   scripts/setup.sh --no-build    # packages only
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+with_torch=0
+build=1
+for arg in "$@"; do
+  case "$arg" in
+    --with-torch) with_torch=1 ;;
+    --no-build) build=0 ;;
+    *) echo "setup.sh: unknown option '$arg'" >&2; exit 2 ;;
+  esac
+done
+
+packages=(
+  cmake g++ make pkg-config
+  libeigen3-dev libxtensor-dev zlib1g-dev nlohmann-json3-dev libcli11-dev
+  libgtest-dev libgmock-dev libbenchmark-dev
+  libopenblas-dev
+  libmujoco-dev
+  clang            # libFuzzer targets (tests/fuzz) run in CI
+)
+[ "$with_torch" = 1 ] && packages+=(libtorch-dev)
+
+missing=()
+for p in "${packages[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+if [ "${#missing[@]}" -gt 0 ]; then
+  echo "setup.sh: installing ${missing[*]}"
+  sudo_cmd=""
+  [ "$(id -u)" -ne 0 ] && sudo_cmd="sudo"
+  $sudo_cmd apt-get update
+  DEBIAN_FRONTEND=noninteractive $sudo_cmd apt-get install -y "${missing[@]}"
+fi
+
+if [ "$build" = 1 ]; then
+  extra=()
+  [ "$with_torch" = 1 ] && extra+=(-DMASKADAPT_WITH_TORCH=ON)
+  cmake -S . -B build -DCMAKE_BUILD_TYPE=Release "${extra[@]}" >/dev/null
+  cmake --build build -j"$(nproc)"
+fi

@@ -1,0 +1,22 @@
+#!/usr/bin/env bash
+# The test command (README, .ci/run): set up, build, run the whole suite, then the same tests
+# once more under AddressSanitizer + UndefinedBehaviorSanitizer in build-asan/, then the fuzzers
+# for a bounded time.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+jobs=$(nproc)
+
+bash scripts/setup.sh
+ctest --test-dir build --output-on-failure -j"$jobs"
+
+echo "== sanitizers (address, undefined) =="
+cmake -S . -B build-asan -DCMAKE_BUILD_TYPE=RelWithDebInfo -DMASKADAPT_SANITIZE=ON \
+  -DMASKADAPT_BUILD_EXAMPLES=OFF -DMASKADAPT_BUILD_BENCHMARKS=OFF >/dev/null
+cmake --build build-asan -j"$jobs"
+ASAN_OPTIONS=detect_leaks=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
+  ctest --test-dir build-asan --output-on-failure -j"$jobs" -LE slow
+
+if [ -x scripts/fuzz.sh ]; then
+  echo "== fuzzers (bounded) =="
+  bash scripts/fuzz.sh --seconds "${MASKADAPT_FUZZ_SECONDS:-60}"
+fi

@@ -1,0 +1,44 @@
+#include <maskadapt/core/error.hpp>
+#include <maskadapt/core/rng.hpp>
+#include <maskadapt/core/thread_pool.hpp>
+
+#include <gtest/gtest.h>
+
+#include <atomic>
+#include <vector>
+
+using namespace maskadapt;
+
+TEST(ThreadPool, EveryIndexRunsExactlyOnce) {
+  for (std::size_t threads : {1u, 2u, 3u, 8u}) {
+    ThreadPool pool(threads);
+    std::vector<std::atomic<int>> hits(1001);
+    pool.parallel_for(0, hits.size(), [&](std::size_t i) { hits[i]++; });
+    for (auto& h : hits) ASSERT_EQ(h.load(), 1) << threads << " threads";
+  }
+}
+
+TEST(ThreadPool, PerIndexStreamsGiveThreadCountIndependentResults) {
+  auto run = [](std::size_t threads) {
+    ThreadPool pool(threads);
+    std::vector<double> out(257);
+    for (int rep = 0; rep < 3; ++rep)
+      pool.parallel_for(0, out.size(), [&](std::size_t i) {
+        Rng r = Rng::stream(123 + rep, i);
+        out[i] += r.normal();
+      });
+    return out;
+  };
+  const auto a = run(1), b = run(2), c = run(5);
+  EXPECT_EQ(a, b);
+  EXPECT_EQ(a, c);
+}
+
+TEST(ThreadPool, ExceptionsPropagateToCaller) {
+  ThreadPool pool(3);
+  EXPECT_THROW(pool.parallel_for(0, 100, [](std::size_t i) { if (i == 77) throw Error("boom"); }), Error);
+  // The pool is still usable afterwards.
+  std::atomic<int> n{0};
+  pool.parallel_for(0, 10, [&](std::size_t) { n++; });
+  EXPECT_EQ(n.load(), 10);
+}
