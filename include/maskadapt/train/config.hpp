@@ -1,0 +1,333 @@
+#pragma once
+/// \file config.hpp
+/// One configuration struct for stage 1 (the mask-invariant AMP base policy), with the two
+/// presets and strict JSON load/save.
+///
+/// Presets:
+///  - `paper`: the paper's values — hidden sizes [1024, 1024, 512] for actor, critic and
+///    discriminator, learning rates actor 1e-5 / critic 1e-4 / discriminator 1e-4, horizon 32,
+///    γ 0.99, λ_GAE 0.95, clip 0.2, critic weight 5, gradient penalty 5, λ_MI 1, mask
+///    probability 0.8 with at most 3 masked parts, 4096 envs. Needs a GPU-class machine.
+///  - `cpu` (default): sizes that train on 2 CPU cores in minutes to hours — [256, 256] actor and
+///    critic, [256, 128] discriminator, 32 envs. 32 envs × horizon 32 = 1,024 samples per
+///    iteration ≈ 0.3 s of MuJoCo on 2 cores (≈ 4,000 control steps/s), so simulation and the
+///    network updates take similar time. The actor learning rate is raised to 5e-5: with 4,000×
+///    fewer samples per iteration than the paper, 1e-5 barely moves the policy in a CPU budget.
+/// Everything else equals the paper preset. docs/training.md explains every field.
+#include <maskadapt/core/error.hpp>
+#include <maskadapt/core/types.hpp>
+#include <maskadapt/train/json_fields.hpp>
+
+#include <nlohmann/json.hpp>
+
+#include <cstdint>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <vector>
+
+namespace maskadapt::train {
+
+/// Run control: budget, seed, output.
+struct RunConfig {
+  std::uint64_t seed = 1;          ///< master seed; env i draws from Rng::stream(seed, i)
+  long long iterations = 500;      ///< iteration budget (0 = unlimited, then `minutes` must be > 0)
+  double minutes = 0.0;            ///< wall-clock budget in minutes (0 = none); whichever ends first
+  long long checkpoint_every = 50; ///< write a checkpoint every K iterations (and always at the end)
+  std::string out_dir = "runs/base";
+  int threads = 0;                 ///< simulation threads (0 = hardware concurrency)
+};
+
+/// Environment / task.
+struct EnvConfig {
+  int num_envs = 32;
+  std::vector<std::string> motions = {"locomotion"};  ///< builtin set name(s), directories or files
+  double episode_seconds = 10.0;   ///< episode length limit (truncation, not termination)
+  double termination_height = 0.3;  ///< head below this height (m) ⇒ fall (plus ground contacts)
+  bool early_termination = true;   ///< terminate on falls
+};
+
+/// Stochastic body-part masking and the mask-invariant loss.
+struct MaskConfig {
+  bool enabled = true;   ///< false ⇒ plain AMP baseline (null mask always, L_MI unused)
+  double prob = 0.8;     ///< probability that a step's mask is non-empty
+  int max_parts = 3;     ///< at most K parts masked at once
+  double lambda_mi = 1.0;  ///< weight of L_MI = KL(π(·|s,m⁰) ‖ π(·|s̄,m)); 0 disables
+};
+
+/// Network sizes.
+struct NetworkConfig {
+  std::vector<Index> actor_hidden = {256, 256};
+  std::vector<Index> critic_hidden = {256, 256};
+  std::vector<Index> disc_hidden = {256, 128};
+  std::string activation = "relu";   ///< relu | elu | silu | tanh
+  double init_log_std = -1.0;        ///< initial log σ of the Gaussian policy (radians of PD target)
+  bool learn_log_std = false;        ///< AMP keeps σ fixed
+};
+
+/// PPO.
+struct PpoConfig {
+  int horizon = 32;               ///< steps per env per iteration
+  double gamma = 0.99;
+  double gae_lambda = 0.95;
+  double clip = 0.2;
+  double critic_weight = 5.0;
+  double entropy_weight = 0.0;
+  int epochs = 5;                 ///< passes over each rollout
+  int minibatch_size = 512;       ///< samples per gradient step
+  double actor_lr = 5e-5;
+  double critic_lr = 1e-4;
+  double max_grad_norm = 1.0;
+  double action_bound_weight = 10.0;  ///< penalty on |μ| beyond ±π (keeps means in a sane range)
+};
+
+/// AMP discriminator.
+struct DiscConfig {
+  double lr = 1e-4;
+  double gradient_penalty = 5.0;  ///< weight of ‖∇ₓD‖² on real samples
+  double logit_reg = 0.01;        ///< L2 on the output layer weights
+  double weight_decay = 1e-4;
+  int replay_size = 100000;       ///< agent windows kept for the replay buffer
+  int batch_size = 512;           ///< agent (half fresh, half replay) and real samples per step
+  int epochs = 1;                 ///< discriminator steps per iteration = epochs·samples/batch
+  bool lsgan = false;             ///< least-squares form of the original AMP paper
+  double reward_scale = 1.0;      ///< multiplies r = −log(max(1−D, 1e−4))
+};
+
+struct BaseTrainConfig {
+  std::string preset = "cpu";
+  RunConfig run;
+  EnvConfig env;
+  MaskConfig mask;
+  NetworkConfig net;
+  PpoConfig ppo;
+  DiscConfig disc;
+
+  /// Throws naming the first field with an invalid value.
+  void validate(const std::string& file = {}) const {
+    auto check = [&](bool ok, const char* field, const std::string& msg) {
+      if (!ok) throw Error(msg, {file, std::nullopt, field});
+    };
+    check(preset == "cpu" || preset == "paper" || preset == "custom", "preset", "expected cpu, paper or custom");
+    check(run.iterations >= 0, "run.iterations", "must be ≥ 0");
+    check(run.minutes >= 0, "run.minutes", "must be ≥ 0");
+    check(run.iterations > 0 || run.minutes > 0, "run.iterations", "need an iteration or a minute budget");
+    check(run.checkpoint_every >= 1, "run.checkpoint_every", "must be ≥ 1");
+    check(!run.out_dir.empty(), "run.out_dir", "must not be empty");
+    check(run.threads >= 0, "run.threads", "must be ≥ 0");
+    check(env.num_envs >= 1, "env.num_envs", "must be ≥ 1");
+    check(!env.motions.empty(), "env.motions", "must name at least one motion set, directory or file");
+    check(env.episode_seconds > 0, "env.episode_seconds", "must be > 0");
+    check(mask.prob >= 0 && mask.prob <= 1, "mask.prob", "must be in [0, 1]");
+    check(mask.max_parts >= 1 && mask.max_parts <= 5, "mask.max_parts", "must be in [1, 5]");
+    check(mask.lambda_mi >= 0, "mask.lambda_mi", "must be ≥ 0");
+    for (const auto* h : {&net.actor_hidden, &net.critic_hidden, &net.disc_hidden})
+      for (Index n : *h) check(n >= 1, h == &net.actor_hidden ? "net.actor_hidden" : h == &net.critic_hidden ? "net.critic_hidden" : "net.disc_hidden", "layer sizes must be ≥ 1");
+    check(net.activation == "relu" || net.activation == "elu" || net.activation == "silu" || net.activation == "tanh",
+          "net.activation", "expected relu, elu, silu or tanh");
+    check(ppo.horizon >= 1, "ppo.horizon", "must be ≥ 1");
+    check(ppo.gamma > 0 && ppo.gamma <= 1, "ppo.gamma", "must be in (0, 1]");
+    check(ppo.gae_lambda >= 0 && ppo.gae_lambda <= 1, "ppo.gae_lambda", "must be in [0, 1]");
+    check(ppo.clip > 0, "ppo.clip", "must be > 0");
+    check(ppo.epochs >= 1, "ppo.epochs", "must be ≥ 1");
+    check(ppo.minibatch_size >= 1, "ppo.minibatch_size", "must be ≥ 1");
+    check(ppo.actor_lr >= 0, "ppo.actor_lr", "must be ≥ 0");
+    check(ppo.critic_lr >= 0, "ppo.critic_lr", "must be ≥ 0");
+    check(ppo.max_grad_norm > 0, "ppo.max_grad_norm", "must be > 0");
+    check(disc.lr >= 0, "disc.lr", "must be ≥ 0");
+    check(disc.gradient_penalty >= 0, "disc.gradient_penalty", "must be ≥ 0");
+    check(disc.replay_size >= 1, "disc.replay_size", "must be ≥ 1");
+    check(disc.batch_size >= 2, "disc.batch_size", "must be ≥ 2");
+    check(disc.epochs >= 1, "disc.epochs", "must be ≥ 1");
+  }
+};
+
+/// The `cpu` preset (the default-constructed config). See the file comment for the reasoning.
+inline BaseTrainConfig cpu_preset() { return BaseTrainConfig{}; }
+
+/// The paper's sizes and rates (4096 envs; meant for large machines).
+inline BaseTrainConfig paper_preset() {
+  BaseTrainConfig c;
+  c.preset = "paper";
+  c.env.num_envs = 4096;
+  c.net.actor_hidden = {1024, 1024, 512};
+  c.net.critic_hidden = {1024, 1024, 512};
+  c.net.disc_hidden = {1024, 1024, 512};
+  c.ppo.actor_lr = 1e-5;
+  c.ppo.critic_lr = 1e-4;
+  c.ppo.minibatch_size = 16384;
+  c.disc.lr = 1e-4;
+  c.disc.batch_size = 4096;
+  c.run.iterations = 20000;
+  c.run.checkpoint_every = 500;
+  return c;
+}
+
+/// `cpu` or `paper`; throws naming `field` for anything else.
+inline BaseTrainConfig preset(const std::string& name, const std::string& field = "preset") {
+  if (name == "cpu") return cpu_preset();
+  if (name == "paper") return paper_preset();
+  throw Error("unknown preset '" + name + "' (expected cpu or paper)", {{}, std::nullopt, field});
+}
+
+// ---- JSON ---------------------------------------------------------------------------------
+
+inline nlohmann::json to_json(const BaseTrainConfig& c) {
+  using nlohmann::json;
+  json j;
+  j["preset"] = c.preset;
+  j["run"] = {{"seed", c.run.seed},         {"iterations", c.run.iterations},
+              {"minutes", c.run.minutes},   {"checkpoint_every", c.run.checkpoint_every},
+              {"out_dir", c.run.out_dir},   {"threads", c.run.threads}};
+  j["env"] = {{"num_envs", c.env.num_envs},
+              {"motions", c.env.motions},
+              {"episode_seconds", c.env.episode_seconds},
+              {"termination_height", c.env.termination_height},
+              {"early_termination", c.env.early_termination}};
+  j["mask"] = {{"enabled", c.mask.enabled}, {"prob", c.mask.prob}, {"max_parts", c.mask.max_parts},
+               {"lambda_mi", c.mask.lambda_mi}};
+  j["net"] = {{"actor_hidden", c.net.actor_hidden}, {"critic_hidden", c.net.critic_hidden},
+              {"disc_hidden", c.net.disc_hidden},   {"activation", c.net.activation},
+              {"init_log_std", c.net.init_log_std}, {"learn_log_std", c.net.learn_log_std}};
+  j["ppo"] = {{"horizon", c.ppo.horizon},
+              {"gamma", c.ppo.gamma},
+              {"gae_lambda", c.ppo.gae_lambda},
+              {"clip", c.ppo.clip},
+              {"critic_weight", c.ppo.critic_weight},
+              {"entropy_weight", c.ppo.entropy_weight},
+              {"epochs", c.ppo.epochs},
+              {"minibatch_size", c.ppo.minibatch_size},
+              {"actor_lr", c.ppo.actor_lr},
+              {"critic_lr", c.ppo.critic_lr},
+              {"max_grad_norm", c.ppo.max_grad_norm},
+              {"action_bound_weight", c.ppo.action_bound_weight}};
+  j["disc"] = {{"lr", c.disc.lr},
+               {"gradient_penalty", c.disc.gradient_penalty},
+               {"logit_reg", c.disc.logit_reg},
+               {"weight_decay", c.disc.weight_decay},
+               {"replay_size", c.disc.replay_size},
+               {"batch_size", c.disc.batch_size},
+               {"epochs", c.disc.epochs},
+               {"lsgan", c.disc.lsgan},
+               {"reward_scale", c.disc.reward_scale}};
+  return j;
+}
+
+/// Parses a config. Fields absent from `j` keep the values of the preset named by `j["preset"]`
+/// (default `cpu`); unknown keys and wrongly typed values throw an Error naming `file` and the
+/// dotted field path. The result is validated.
+inline BaseTrainConfig config_from_json(const nlohmann::json& j, const std::string& file = {}) {
+  JsonObjectReader top(j, "", file);
+  std::string preset_name = "cpu";
+  top.get("preset", preset_name);
+  BaseTrainConfig c;
+  if (preset_name == "custom") {
+    c.preset = "custom";
+  } else {
+    try {
+      c = preset(preset_name);
+    } catch (const Error& e) {
+      throw Error(e.message(), {file, std::nullopt, "preset"});
+    }
+  }
+  {
+    auto r = top.child("run");
+    r.get("seed", c.run.seed);
+    r.get("iterations", c.run.iterations);
+    r.get("minutes", c.run.minutes);
+    r.get("checkpoint_every", c.run.checkpoint_every);
+    r.get("out_dir", c.run.out_dir);
+    r.get("threads", c.run.threads);
+    r.finish();
+  }
+  {
+    auto r = top.child("env");
+    r.get("num_envs", c.env.num_envs);
+    r.get("motions", c.env.motions);
+    r.get("episode_seconds", c.env.episode_seconds);
+    r.get("termination_height", c.env.termination_height);
+    r.get("early_termination", c.env.early_termination);
+    r.finish();
+  }
+  {
+    auto r = top.child("mask");
+    r.get("enabled", c.mask.enabled);
+    r.get("prob", c.mask.prob);
+    r.get("max_parts", c.mask.max_parts);
+    r.get("lambda_mi", c.mask.lambda_mi);
+    r.finish();
+  }
+  {
+    auto r = top.child("net");
+    r.get("actor_hidden", c.net.actor_hidden);
+    r.get("critic_hidden", c.net.critic_hidden);
+    r.get("disc_hidden", c.net.disc_hidden);
+    r.get("activation", c.net.activation);
+    r.get("init_log_std", c.net.init_log_std);
+    r.get("learn_log_std", c.net.learn_log_std);
+    r.finish();
+  }
+  {
+    auto r = top.child("ppo");
+    r.get("horizon", c.ppo.horizon);
+    r.get("gamma", c.ppo.gamma);
+    r.get("gae_lambda", c.ppo.gae_lambda);
+    r.get("clip", c.ppo.clip);
+    r.get("critic_weight", c.ppo.critic_weight);
+    r.get("entropy_weight", c.ppo.entropy_weight);
+    r.get("epochs", c.ppo.epochs);
+    r.get("minibatch_size", c.ppo.minibatch_size);
+    r.get("actor_lr", c.ppo.actor_lr);
+    r.get("critic_lr", c.ppo.critic_lr);
+    r.get("max_grad_norm", c.ppo.max_grad_norm);
+    r.get("action_bound_weight", c.ppo.action_bound_weight);
+    r.finish();
+  }
+  {
+    auto r = top.child("disc");
+    r.get("lr", c.disc.lr);
+    r.get("gradient_penalty", c.disc.gradient_penalty);
+    r.get("logit_reg", c.disc.logit_reg);
+    r.get("weight_decay", c.disc.weight_decay);
+    r.get("replay_size", c.disc.replay_size);
+    r.get("batch_size", c.disc.batch_size);
+    r.get("epochs", c.disc.epochs);
+    r.get("lsgan", c.disc.lsgan);
+    r.get("reward_scale", c.disc.reward_scale);
+    r.finish();
+  }
+  top.finish();
+  c.validate(file);
+  return c;
+}
+
+/// Parses JSON text (syntax errors name `file` and the line).
+inline BaseTrainConfig config_from_string(const std::string& text, const std::string& file = {}) {
+  nlohmann::json j;
+  try {
+    j = nlohmann::json::parse(text);
+  } catch (const nlohmann::json::parse_error& e) {
+    // e.byte is the 1-based offset of the error; turn it into a line number.
+    long long line = 1;
+    for (std::size_t i = 0; i < text.size() && i + 1 < e.byte; ++i) line += text[i] == '\n';
+    throw Error(std::string("invalid JSON: ") + e.what(), {file, line, {}});
+  }
+  return config_from_json(j, file);
+}
+
+inline BaseTrainConfig load_config(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) throw Error("cannot open config file", {path, std::nullopt, {}});
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return config_from_string(ss.str(), path);
+}
+
+inline void save_config(const BaseTrainConfig& c, const std::string& path) {
+  std::ofstream out(path);
+  if (!out) throw Error("cannot write config file", {path, std::nullopt, {}});
+  out << to_json(c).dump(2) << "\n";
+  if (!out) throw Error("failed writing config file", {path, std::nullopt, {}});
+}
+
+}  // namespace maskadapt::train

@@ -1,0 +1,145 @@
+#pragma once
+/// \file progress.hpp
+/// Per-iteration statistics of a trainer, the JSONL log (one JSON object per iteration) and the
+/// one-line progress display on the terminal.
+#include <maskadapt/core/error.hpp>
+
+#include <nlohmann/json.hpp>
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <string>
+
+namespace maskadapt::train {
+
+/// Wall-clock stopwatch (seconds).
+class Stopwatch {
+ public:
+  Stopwatch() : start_(clock::now()) {}
+  void restart() { start_ = clock::now(); }
+  double seconds() const { return std::chrono::duration<double>(clock::now() - start_).count(); }
+
+ private:
+  using clock = std::chrono::steady_clock;
+  clock::time_point start_;
+};
+
+/// Everything logged for one iteration. Times are wall-clock seconds of this iteration, split
+/// into simulation (physics stepping), inference (policy/value/discriminator forward passes and
+/// features during collection) and update (GAE, PPO, MI and discriminator steps).
+struct IterationStats {
+  long long iteration = 0;        ///< 1-based index of the iteration just finished
+  long long samples = 0;          ///< total env steps collected so far (all envs)
+  double samples_per_s = 0;       ///< env steps per wall second of this iteration
+  double episode_length = 0;      ///< mean length (s) of episodes that ended in this iteration (NaN if none)
+  double episodes = 0;            ///< episodes that ended in this iteration
+  double fall_rate = 0;           ///< fraction of ended episodes that ended by a fall
+  double disc_reward = 0;         ///< mean discriminator reward per step
+  double disc_real = 0;           ///< mean D(real) (probability) during discriminator updates
+  double disc_fake = 0;           ///< mean D(agent)
+  double disc_loss = 0;
+  double disc_grad_penalty = 0;
+  double mi_kl = 0;               ///< mean KL(π(·|s,m⁰) ‖ π(·|s̄,m)) over PPO minibatches
+  double policy_loss = 0;
+  double value_loss = 0;
+  double entropy = 0;
+  double approx_kl = 0;
+  double clip_frac = 0;
+  double grad_norm = 0;
+  double mask_fraction = 0;       ///< fraction of collected steps with a non-empty mask
+  double time_sim = 0;
+  double time_inference = 0;
+  double time_update = 0;
+  double time_total = 0;
+  long long skipped_updates = 0;  ///< non-finite update steps skipped in this iteration
+  long long sim_resets = 0;       ///< envs reset by the simulator because physics went non-finite
+  double elapsed_s = 0;           ///< wall time since the run (or resume) started
+  double eta_s = NAN;             ///< estimated time left (NaN when unknown)
+};
+
+inline nlohmann::json to_json(const IterationStats& s) {
+  auto num = [](double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr); };
+  return {{"iteration", s.iteration},
+          {"samples", s.samples},
+          {"samples_per_s", num(s.samples_per_s)},
+          {"episode_length", num(s.episode_length)},
+          {"episodes", num(s.episodes)},
+          {"fall_rate", num(s.fall_rate)},
+          {"disc_reward", num(s.disc_reward)},
+          {"disc_real", num(s.disc_real)},
+          {"disc_fake", num(s.disc_fake)},
+          {"disc_loss", num(s.disc_loss)},
+          {"disc_grad_penalty", num(s.disc_grad_penalty)},
+          {"mi_kl", num(s.mi_kl)},
+          {"policy_loss", num(s.policy_loss)},
+          {"value_loss", num(s.value_loss)},
+          {"entropy", num(s.entropy)},
+          {"approx_kl", num(s.approx_kl)},
+          {"clip_frac", num(s.clip_frac)},
+          {"grad_norm", num(s.grad_norm)},
+          {"mask_fraction", num(s.mask_fraction)},
+          {"time_sim", num(s.time_sim)},
+          {"time_inference", num(s.time_inference)},
+          {"time_update", num(s.time_update)},
+          {"time_total", num(s.time_total)},
+          {"skipped_updates", s.skipped_updates},
+          {"sim_resets", s.sim_resets},
+          {"elapsed_s", num(s.elapsed_s)},
+          {"eta_s", num(s.eta_s)}};
+}
+
+/// Appends one JSON object per line; flushed after every line so a crash loses nothing.
+class JsonlLog {
+ public:
+  JsonlLog() = default;
+  /// Opens `path` for appending (a resumed run continues the same log) or truncates it.
+  explicit JsonlLog(const std::string& path, bool append = false)
+      : path_(path), out_(path, append ? std::ios::app : std::ios::trunc) {
+    if (!out_) throw Error("cannot open log file for writing", {path, std::nullopt, {}});
+  }
+  bool is_open() const { return out_.is_open(); }
+  void write(const nlohmann::json& j) {
+    if (!out_.is_open()) return;
+    out_ << j.dump() << '\n';
+    out_.flush();
+    if (!out_) throw Error("failed writing log file", {path_, std::nullopt, {}});
+  }
+
+ private:
+  std::string path_;
+  std::ofstream out_;
+};
+
+/// "1h02m", "3m05s", "12s", "--" for unknown.
+inline std::string format_duration(double seconds) {
+  if (!std::isfinite(seconds) || seconds < 0) return "--";
+  const long long s = static_cast<long long>(std::llround(seconds));
+  char buf[32];
+  if (s >= 3600) std::snprintf(buf, sizeof buf, "%lldh%02lldm", s / 3600, (s % 3600) / 60);
+  else if (s >= 60) std::snprintf(buf, sizeof buf, "%lldm%02llds", s / 60, s % 60);
+  else std::snprintf(buf, sizeof buf, "%llds", s);
+  return buf;
+}
+
+/// The terminal progress line, e.g.
+/// `it   120/500 | 3,140 sps | ep 6.21 s | r_D 0.412 | KL_MI 0.0312 | sim 41% inf 22% upd 37% | ETA 21m10s`
+inline std::string format_progress(const IterationStats& s, long long total_iterations) {
+  const double t = s.time_sim + s.time_inference + s.time_update;
+  auto pct = [&](double x) { return t > 0 ? 100.0 * x / t : 0.0; };
+  char ep[32];
+  if (std::isfinite(s.episode_length)) std::snprintf(ep, sizeof ep, "%5.2f s", s.episode_length);
+  else std::snprintf(ep, sizeof ep, "  -- s");
+  char total[32] = "";
+  if (total_iterations > 0) std::snprintf(total, sizeof total, "/%lld", total_iterations);
+  char buf[256];
+  std::snprintf(buf, sizeof buf,
+                "it %6lld%s | %6.0f sps | ep %s | r_D %.3f | KL_MI %.4f | sim %2.0f%% inf %2.0f%% upd %2.0f%% | ETA %s%s",
+                s.iteration, total, s.samples_per_s, ep, s.disc_reward, s.mi_kl, pct(s.time_sim),
+                pct(s.time_inference), pct(s.time_update), format_duration(s.eta_s).c_str(),
+                s.skipped_updates > 0 ? " | SKIPPED non-finite updates" : "");
+  return buf;
+}
+
+}  // namespace maskadapt::train

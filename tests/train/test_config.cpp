@@ -1,0 +1,123 @@
+#include <maskadapt/train/config.hpp>
+
+#include <gtest/gtest.h>
+
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+
+using namespace maskadapt;
+using namespace maskadapt::train;
+
+namespace {
+// Returns the Error's field (and checks that it names the file), or "" if nothing was thrown.
+std::string error_field(const std::string& text, const std::string& file = "cfg.json") {
+  try {
+    config_from_string(text, file);
+  } catch (const Error& e) {
+    EXPECT_EQ(e.context().file, file) << e.what();
+    return e.context().field;
+  }
+  return "";
+}
+}  // namespace
+
+TEST(TrainConfig, PresetsCarryThePaperValues) {
+  const auto p = paper_preset();
+  EXPECT_EQ(p.net.actor_hidden, (std::vector<Index>{1024, 1024, 512}));
+  EXPECT_EQ(p.net.critic_hidden, (std::vector<Index>{1024, 1024, 512}));
+  EXPECT_DOUBLE_EQ(p.ppo.actor_lr, 1e-5);
+  EXPECT_DOUBLE_EQ(p.ppo.critic_lr, 1e-4);
+  EXPECT_DOUBLE_EQ(p.disc.lr, 1e-4);
+  EXPECT_EQ(p.ppo.horizon, 32);
+  EXPECT_DOUBLE_EQ(p.ppo.gamma, 0.99);
+  EXPECT_DOUBLE_EQ(p.ppo.gae_lambda, 0.95);
+  EXPECT_DOUBLE_EQ(p.ppo.clip, 0.2);
+  EXPECT_DOUBLE_EQ(p.ppo.critic_weight, 5.0);
+  EXPECT_DOUBLE_EQ(p.disc.gradient_penalty, 5.0);
+  EXPECT_DOUBLE_EQ(p.mask.lambda_mi, 1.0);
+  EXPECT_DOUBLE_EQ(p.mask.prob, 0.8);
+  EXPECT_EQ(p.mask.max_parts, 3);
+  EXPECT_EQ(p.env.num_envs, 4096);
+  const auto c = cpu_preset();
+  EXPECT_EQ(c.net.actor_hidden, (std::vector<Index>{256, 256}));
+  EXPECT_EQ(c.env.num_envs, 32);
+  EXPECT_NO_THROW(p.validate());
+  EXPECT_NO_THROW(c.validate());
+  EXPECT_THROW(preset("gpu"), Error);
+}
+
+TEST(TrainConfig, JsonRoundTripPreservesEveryField) {
+  BaseTrainConfig c = paper_preset();
+  c.run.seed = 1234567890123ULL;
+  c.run.minutes = 2.5;
+  c.env.motions = {"locomotion", "/tmp/x.bvh"};
+  c.mask.enabled = false;
+  c.mask.lambda_mi = 0.1;
+  c.net.activation = "elu";
+  c.ppo.minibatch_size = 77;
+  c.disc.lsgan = true;
+  const auto j = to_json(c);
+  const auto back = config_from_json(j);
+  EXPECT_EQ(to_json(back), j);
+  EXPECT_EQ(back.run.seed, c.run.seed);
+  EXPECT_EQ(back.env.motions, c.env.motions);
+  EXPECT_FALSE(back.mask.enabled);
+  EXPECT_TRUE(back.disc.lsgan);
+
+  const auto path = (std::filesystem::temp_directory_path() / "maskadapt_cfg_roundtrip.json").string();
+  save_config(c, path);
+  EXPECT_EQ(to_json(load_config(path)), j);
+  std::filesystem::remove(path);
+}
+
+TEST(TrainConfig, MissingFieldsComeFromTheNamedPreset) {
+  const auto c = config_from_string(R"({"preset": "paper", "ppo": {"actor_lr": 3e-5}})");
+  EXPECT_EQ(c.net.actor_hidden, (std::vector<Index>{1024, 1024, 512}));
+  EXPECT_DOUBLE_EQ(c.ppo.actor_lr, 3e-5);
+  EXPECT_DOUBLE_EQ(c.ppo.critic_lr, 1e-4);
+  const auto d = config_from_string("{}");
+  EXPECT_EQ(to_json(d), to_json(cpu_preset()));
+}
+
+TEST(TrainConfig, ErrorsNameTheFieldAndFile) {
+  EXPECT_EQ(error_field(R"({"ppo": {"actor_lr": "fast"}})"), "ppo.actor_lr");
+  EXPECT_EQ(error_field(R"({"ppo": {"actro_lr": 1e-5}})"), "ppo.actro_lr");  // unknown key
+  EXPECT_EQ(error_field(R"({"bogus": 1})"), "bogus");
+  EXPECT_EQ(error_field(R"({"env": {"num_envs": 0}})"), "env.num_envs");
+  EXPECT_EQ(error_field(R"({"env": {"num_envs": 1.5}})"), "env.num_envs");
+  EXPECT_EQ(error_field(R"({"env": {"num_envs": -3000000000}})"), "env.num_envs");
+  EXPECT_EQ(error_field(R"({"env": {"motions": ["a", 3]}})"), "env.motions[1]");
+  EXPECT_EQ(error_field(R"({"mask": {"prob": 1.5}})"), "mask.prob");
+  EXPECT_EQ(error_field(R"({"mask": {"enabled": 1}})"), "mask.enabled");
+  EXPECT_EQ(error_field(R"({"net": {"actor_hidden": [256, 0]}})"), "net.actor_hidden");
+  EXPECT_EQ(error_field(R"({"net": {"activation": "gelu"}})"), "net.activation");
+  EXPECT_EQ(error_field(R"({"preset": "gpu"})"), "preset");
+  EXPECT_EQ(error_field(R"({"run": 5})"), "run");
+  EXPECT_EQ(error_field(R"({"run": {"iterations": 0, "minutes": 0}})"), "run.iterations");
+  EXPECT_EQ(error_field(R"({"ppo": {"horizon": 32}})"), "");  // valid: nothing thrown
+}
+
+TEST(TrainConfig, SyntaxErrorsGiveTheLine) {
+  try {
+    config_from_string("{\n  \"ppo\": {\n    \"clip\": 0.2,,\n  }\n}", "bad.json");
+    FAIL() << "no error";
+  } catch (const Error& e) {
+    EXPECT_EQ(e.context().file, "bad.json");
+    ASSERT_TRUE(e.context().line.has_value());
+    EXPECT_EQ(*e.context().line, 3);
+  }
+  EXPECT_THROW(load_config("/nonexistent/dir/cfg.json"), Error);
+}
+
+TEST(TrainConfig, ShippedConfigsParse) {
+  const std::filesystem::path dir = std::filesystem::path(MASKADAPT_SOURCE_DIR) / "configs";
+  int n = 0;
+  for (const auto& e : std::filesystem::directory_iterator(dir)) {
+    if (e.path().extension() != ".json") continue;
+    SCOPED_TRACE(e.path().string());
+    EXPECT_NO_THROW(load_config(e.path().string()));
+    ++n;
+  }
+  EXPECT_GE(n, 2);
+}

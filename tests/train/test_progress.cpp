@@ -1,0 +1,72 @@
+#include <maskadapt/train/progress.hpp>
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+
+using namespace maskadapt::train;
+
+TEST(TrainProgress, DurationFormatting) {
+  EXPECT_EQ(format_duration(12.4), "12s");
+  EXPECT_EQ(format_duration(185), "3m05s");
+  EXPECT_EQ(format_duration(3720), "1h02m");
+  EXPECT_EQ(format_duration(NAN), "--");
+}
+
+TEST(TrainProgress, ProgressLineShowsTheKeyNumbers) {
+  IterationStats s;
+  s.iteration = 120;
+  s.samples_per_s = 3140;
+  s.episode_length = 6.21;
+  s.disc_reward = 0.412;
+  s.mi_kl = 0.0312;
+  s.time_sim = 4;
+  s.time_inference = 2;
+  s.time_update = 4;
+  s.eta_s = 1270;
+  const auto line = format_progress(s, 500);
+  EXPECT_NE(line.find("120/500"), std::string::npos) << line;
+  EXPECT_NE(line.find("3140 sps"), std::string::npos) << line;
+  EXPECT_NE(line.find("6.21 s"), std::string::npos) << line;
+  EXPECT_NE(line.find("r_D 0.412"), std::string::npos) << line;
+  EXPECT_NE(line.find("KL_MI 0.0312"), std::string::npos) << line;
+  EXPECT_NE(line.find("sim 40%"), std::string::npos) << line;
+  EXPECT_NE(line.find("ETA 21m10s"), std::string::npos) << line;
+}
+
+TEST(TrainProgress, JsonlLogWritesOneParsableObjectPerLine) {
+  const auto path = (std::filesystem::temp_directory_path() / "maskadapt_log_test.jsonl").string();
+  {
+    JsonlLog log(path);
+    IterationStats s;
+    for (int i = 1; i <= 3; ++i) {
+      s.iteration = i;
+      s.episode_length = i == 2 ? NAN : 1.5 * i;
+      log.write(to_json(s));
+    }
+  }
+  {
+    JsonlLog log(path, /*append=*/true);
+    IterationStats s;
+    s.iteration = 4;
+    log.write(to_json(s));
+  }
+  std::ifstream in(path);
+  std::string line;
+  int n = 0;
+  while (std::getline(in, line)) {
+    const auto j = nlohmann::json::parse(line);
+    ++n;
+    EXPECT_EQ(j.at("iteration").get<int>(), n);
+    for (const char* key : {"samples", "samples_per_s", "episode_length", "disc_reward", "disc_real", "disc_fake",
+                            "mi_kl", "policy_loss", "value_loss", "entropy", "approx_kl", "clip_frac", "grad_norm",
+                            "time_sim", "time_inference", "time_update", "skipped_updates"})
+      EXPECT_TRUE(j.contains(key)) << key;
+    if (n == 2) {
+      EXPECT_TRUE(j.at("episode_length").is_null());  // NaN → null, still valid JSON
+    }
+  }
+  EXPECT_EQ(n, 4);
+  std::filesystem::remove(path);
+}
