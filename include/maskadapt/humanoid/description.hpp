@@ -161,7 +161,7 @@ inline HumanoidDescription make_humanoid_description() {
   };
   lim(hb::LHip, {-0.6, -2.2, -1.0}, {1.3, 0.7, 1.0});
   lim(hb::RHip, {-1.3, -2.2, -1.0}, {0.6, 0.7, 1.0});
-  for (int b : {hb::LKnee, hb::RKnee}) lim(b, {-0.3, -0.1, -0.4}, {0.3, 2.7, 0.4});
+  for (int b : {hb::LKnee, hb::RKnee}) lim(b, {-0.3, 0.0, -0.4}, {0.3, 2.7, 0.4});
   for (int b : {hb::LAnkle, hb::RAnkle}) lim(b, {-0.6, -0.9, -0.7}, {0.6, 0.9, 0.7});
   for (int b : {hb::LToe, hb::RToe}) lim(b, {-0.4, -1.0, -0.4}, {0.4, 0.7, 0.4});
   for (int b : {hb::Torso, hb::Spine, hb::Chest}) lim(b, {-0.7, -0.7, -0.7}, {0.7, 1.1, 0.7});

@@ -1,0 +1,348 @@
+#pragma once
+/// \file humanoid_sim.hpp
+/// `MujocoHumanoidSim`: the reference humanoid on MuJoCo (2.2.2+), N envs stepped in parallel.
+///
+/// One const `mjModel` (generated from a HumanoidDescription), one `mjData` per env. Each
+/// `step(targets)` writes the PD targets into `ctrl`, runs `substeps` Euler steps per env on the
+/// thread pool, refreshes kinematics (`mj_kinematics` + `mj_comPos` + `mj_comVel`: after
+/// `mj_step` MuJoCo's positions describe the state before the last integration) and converts to
+/// the library's conventions:
+///  - MuJoCo quaternions (w, x, y, z) → Eigen (`Quat`);
+///  - free-joint angular velocity qvel[3:6] is body-local → world on reset;
+///  - body velocities from `mj_objectVelocity` (world orientation, at the body origin).
+/// Contact flags come from the last substep's contact list (floor vs body geoms).
+///
+/// Failure handling: an env whose state becomes non-finite or explodes (|qvel| > 1e4, or a body
+/// farther than 1e4 m), or which MuJoCo reset itself (its time went backwards — MuJoCo 2.2.2
+/// resets mjData on a bad qacc), is reset to the last pose given to `reset` and counted in
+/// `step_stats()`. Other envs are unaffected. Results are bit-identical for any thread count:
+/// env e only touches its own mjData and output slots.
+///
+/// This folder is the only place that includes <mujoco/mujoco.h>.
+#include <maskadapt/core/error.hpp>
+#include <maskadapt/core/thread_pool.hpp>
+#include <maskadapt/core/types.hpp>
+#include <maskadapt/humanoid/description.hpp>
+#include <maskadapt/humanoid/mjcf.hpp>
+#include <maskadapt/sim/simulator.hpp>
+
+#include <mujoco/mujoco.h>
+
+#include <atomic>
+#include <cmath>
+#include <cstring>
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace maskadapt {
+
+namespace mujoco_detail {
+
+/// Count of MuJoCo warnings seen since the handler was installed (process-wide).
+inline std::atomic<std::uint64_t>& warning_count() {
+  static std::atomic<std::uint64_t> n{0};
+  return n;
+}
+inline void count_warning(const char*) { warning_count().fetch_add(1, std::memory_order_relaxed); }
+
+/// Installs a warning handler that counts instead of appending to MUJOCO_LOG.TXT, unless the
+/// application installed its own.
+inline void install_warning_handler() {
+  if (mju_user_warning == nullptr) mju_user_warning = &count_warning;
+}
+
+struct ModelDeleter {
+  void operator()(mjModel* m) const { mj_deleteModel(m); }
+};
+struct DataDeleter {
+  void operator()(mjData* d) const { mj_deleteData(d); }
+};
+using ModelPtr = std::unique_ptr<mjModel, ModelDeleter>;
+using DataPtr = std::unique_ptr<mjData, DataDeleter>;
+
+/// Compiles MJCF text in memory (through a VFS); errors become maskadapt::Error.
+inline ModelPtr load_model_from_string(const std::string& xml, const std::string& name = "humanoid.xml") {
+  auto vfs = std::make_unique<mjVFS>();  // ~2 MB: keep it off the stack
+  mj_defaultVFS(vfs.get());
+  require(mj_makeEmptyFileVFS(vfs.get(), name.c_str(), static_cast<int>(xml.size())) == 0,
+          "cannot create an in-memory MuJoCo file", {name, {}, {}});
+  const int idx = mj_findFileVFS(vfs.get(), name.c_str());
+  std::memcpy(vfs->filedata[idx], xml.data(), xml.size());
+  char error[1000] = "";
+  mjModel* m = mj_loadXML(name.c_str(), vfs.get(), error, sizeof error);
+  mj_deleteVFS(vfs.get());
+  if (!m) throw Error(std::string("MuJoCo could not load the model: ") + error, {name, {}, {}});
+  return ModelPtr(m);
+}
+
+/// Loads an MJCF file from disk; errors become maskadapt::Error naming the file.
+inline ModelPtr load_model_from_file(const std::string& path) {
+  char error[1000] = "";
+  mjModel* m = mj_loadXML(path.c_str(), nullptr, error, sizeof error);
+  if (!m) throw Error(std::string("MuJoCo could not load the model: ") + error, {path, {}, {}});
+  return ModelPtr(m);
+}
+
+}  // namespace mujoco_detail
+
+class MujocoHumanoidSim {
+ public:
+  /// `num_envs` copies of the humanoid in `desc`, stepped on `pool` (nullptr: an owned pool with
+  /// `num_threads` threads, 1 by default). Every env starts at the standing zero pose.
+  explicit MujocoHumanoidSim(std::size_t num_envs, std::size_t num_threads = 1,
+                             const HumanoidDescription& desc = humanoid_description())
+      : MujocoHumanoidSim(num_envs, nullptr, num_threads, desc) {}
+  MujocoHumanoidSim(std::size_t num_envs, ThreadPool& pool, const HumanoidDescription& desc = humanoid_description())
+      : MujocoHumanoidSim(num_envs, &pool, 1, desc) {}
+
+  MujocoHumanoidSim(const MujocoHumanoidSim&) = delete;
+  MujocoHumanoidSim& operator=(const MujocoHumanoidSim&) = delete;
+
+  // ---- Simulator concept -------------------------------------------------------------------
+  std::size_t num_envs() const { return envs_.size(); }
+  const Skeleton& skeleton() const { return desc_.skeleton; }
+  double control_dt() const { return desc_.control_dt(); }
+  const BodyStates& body_states(std::size_t env) const { return at(env).states; }
+  const ContactFlags& contacts(std::size_t env) const { return at(env).contacts; }
+  const StepStats& step_stats() const { return stats_; }
+
+  /// Places env `env` at `pose` (root pose, joint angles, world root velocities, joint rates).
+  /// Throws Error on a malformed pose. Joint angles outside the limits are accepted (MuJoCo pushes
+  /// them back through its limit constraints).
+  void reset(std::size_t env, const KinematicState& pose) {
+    check_pose(desc_.skeleton, pose);
+    Env& e = at(env);
+    e.reset_pose = pose;
+    if (e.reset_pose.qd.size() == 0) e.reset_pose.qd = VectorXd::Zero(desc_.skeleton.num_dofs());
+    apply_reset(e);
+  }
+
+  /// One 30 Hz control step for all envs. `targets`: (num_dofs × num_envs) PD joint targets (rad);
+  /// clipped to the joint ranges by MuJoCo. Throws Error (before touching any env) on wrong
+  /// dimensions or NaN/inf.
+  void step(const Eigen::Ref<const MatrixXf>& targets) {
+    check_targets(targets, desc_.skeleton.num_dofs(), static_cast<Index>(num_envs()));
+    step_impl([&](std::size_t env, mjtNum* ctrl) {
+      for (Index k = 0; k < targets.rows(); ++k) ctrl[k] = static_cast<mjtNum>(targets(k, static_cast<Index>(env)));
+    });
+  }
+  /// Double-precision targets, same contract.
+  void step(const Eigen::Ref<const MatrixXd>& targets) {
+    check_targets(targets, desc_.skeleton.num_dofs(), static_cast<Index>(num_envs()));
+    step_impl([&](std::size_t env, mjtNum* ctrl) {
+      for (Index k = 0; k < targets.rows(); ++k) ctrl[k] = targets(k, static_cast<Index>(env));
+    });
+  }
+
+  // ---- extras --------------------------------------------------------------------------------
+  const HumanoidDescription& description() const { return desc_; }
+  const mjModel* model() const { return model_.get(); }
+  /// Raw MuJoCo data of one env (advanced use and tests; writing it bypasses all checks).
+  mjData* data(std::size_t env) { return at(env).data.get(); }
+  const mjData* data(std::size_t env) const { return at(env).data.get(); }
+  std::size_t num_threads() const { return pool_->num_threads(); }
+
+  /// Joint angles (num_dofs) of an env, read from MuJoCo's qpos.
+  VectorXd joint_angles(std::size_t env) const {
+    const Env& e = at(env);
+    VectorXd q(desc_.skeleton.num_dofs());
+    for (Index k = 0; k < q.size(); ++k) q[k] = e.data->qpos[qpos_adr_[static_cast<std::size_t>(k)]];
+    return q;
+  }
+
+ private:
+  struct Env {
+    mujoco_detail::DataPtr data;
+    BodyStates states;
+    ContactFlags contacts;
+    KinematicState reset_pose;
+  };
+
+  MujocoHumanoidSim(std::size_t num_envs, ThreadPool* pool, std::size_t num_threads, const HumanoidDescription& desc)
+      : desc_(desc) {
+    require(num_envs >= 1, "a simulator needs at least one env", {{}, {}, "num_envs"});
+    require(desc_.substeps >= 1 && desc_.physics_dt > 0, "physics_dt and substeps must be positive",
+            {{}, {}, "substeps"});
+    mujoco_detail::install_warning_handler();
+    model_ = mujoco_detail::load_model_from_string(humanoid_mjcf(desc_));
+    if (pool) {
+      pool_ = pool;
+    } else {
+      owned_pool_ = std::make_unique<ThreadPool>(num_threads == 0 ? 1 : num_threads);
+      pool_ = owned_pool_.get();
+    }
+    index_model();
+    envs_.resize(num_envs);
+    stats_.physics_reset.assign(num_envs, 0);
+    const KinematicState standing = standing_pose();
+    for (auto& e : envs_) {
+      e.data.reset(mj_makeData(model_.get()));
+      require(e.data != nullptr, "MuJoCo could not allocate mjData", {{}, {}, "num_envs"});
+      e.states.resize(desc_.skeleton.num_bodies());
+      e.contacts.assign(static_cast<std::size_t>(desc_.skeleton.num_bodies()), 0);
+      e.reset_pose = standing;
+      apply_reset(e);
+    }
+  }
+
+  KinematicState standing_pose() const {
+    KinematicState s = KinematicState::zero(desc_.skeleton);
+    s.root_pos = Vec3(0, 0, desc_.root_height);
+    return s;
+  }
+
+  /// Maps the skeleton's bodies/DoFs to MuJoCo ids and addresses (by name).
+  void index_model() {
+    const Skeleton& s = desc_.skeleton;
+    const mjModel* m = model_.get();
+    require(m->nu == s.num_dofs(), "model has " + std::to_string(m->nu) + " actuators, expected " +
+                                       std::to_string(s.num_dofs()), {{}, {}, "actuators"});
+    body_id_.resize(static_cast<std::size_t>(s.num_bodies()));
+    for (int i = 0; i < s.num_bodies(); ++i) {
+      body_id_[static_cast<std::size_t>(i)] = mj_name2id(m, mjOBJ_BODY, s.names[static_cast<std::size_t>(i)].c_str());
+      require(body_id_[static_cast<std::size_t>(i)] > 0, "model has no body '" + s.names[static_cast<std::size_t>(i)] + "'",
+              {{}, {}, "bodies"});
+    }
+    const int root_joint = mj_name2id(m, mjOBJ_JOINT, "root");
+    require(root_joint >= 0 && m->jnt_type[root_joint] == mjJNT_FREE, "model has no free joint 'root'",
+            {{}, {}, "root"});
+    root_qpos_ = m->jnt_qposadr[root_joint];
+    root_dof_ = m->jnt_dofadr[root_joint];
+    qpos_adr_.resize(static_cast<std::size_t>(s.num_dofs()));
+    dof_adr_.resize(static_cast<std::size_t>(s.num_dofs()));
+    for (int i = 1; i < s.num_bodies(); ++i)
+      for (int k = 0; k < 3; ++k) {
+        const std::string name = s.names[static_cast<std::size_t>(i)] + (k == 0 ? "_x" : k == 1 ? "_y" : "_z");
+        const int j = mj_name2id(m, mjOBJ_JOINT, name.c_str());
+        require(j >= 0, "model has no joint '" + name + "'", {{}, {}, "joints"});
+        const auto dof = static_cast<std::size_t>(Skeleton::dof_offset(i) + k);
+        qpos_adr_[dof] = m->jnt_qposadr[j];
+        dof_adr_[dof] = m->jnt_dofadr[j];
+        require(m->actuator_trnid[2 * static_cast<int>(dof)] == j, "actuator " + std::to_string(dof) +
+                    " does not drive joint '" + name + "'", {{}, {}, "actuators"});
+      }
+    body_of_geom_.resize(static_cast<std::size_t>(m->ngeom), -1);
+    for (int g = 0; g < m->ngeom; ++g)
+      for (int i = 0; i < s.num_bodies(); ++i)
+        if (m->geom_bodyid[g] == body_id_[static_cast<std::size_t>(i)]) body_of_geom_[static_cast<std::size_t>(g)] = i;
+    floor_geom_ = mj_name2id(m, mjOBJ_GEOM, "floor");
+    require(floor_geom_ >= 0, "model has no geom 'floor'", {{}, {}, "floor"});
+  }
+
+  Env& at(std::size_t env) {
+    require(env < envs_.size(), "env index " + std::to_string(env) + " out of range (num_envs " +
+                                    std::to_string(envs_.size()) + ")", {{}, {}, "env"});
+    return envs_[env];
+  }
+  const Env& at(std::size_t env) const { return const_cast<MujocoHumanoidSim*>(this)->at(env); }
+
+  /// Writes e.reset_pose into MuJoCo (qpos, qvel), clears actuation, recomputes everything.
+  void apply_reset(Env& e) const {
+    const mjModel* m = model_.get();
+    mjData* d = e.data.get();
+    mj_resetData(m, d);
+    const KinematicState& p = e.reset_pose;
+    const Quat r = p.root_rot.normalized();
+    d->qpos[root_qpos_ + 0] = p.root_pos.x();
+    d->qpos[root_qpos_ + 1] = p.root_pos.y();
+    d->qpos[root_qpos_ + 2] = p.root_pos.z();
+    d->qpos[root_qpos_ + 3] = r.w();  // MuJoCo: w, x, y, z
+    d->qpos[root_qpos_ + 4] = r.x();
+    d->qpos[root_qpos_ + 5] = r.y();
+    d->qpos[root_qpos_ + 6] = r.z();
+    const Vec3 w_local = r.conjugate() * p.root_ang_vel;  // free joint: body-local angular velocity
+    for (int k = 0; k < 3; ++k) {
+      d->qvel[root_dof_ + k] = p.root_lin_vel[k];
+      d->qvel[root_dof_ + 3 + k] = w_local[k];
+    }
+    for (std::size_t k = 0; k < qpos_adr_.size(); ++k) {
+      d->qpos[qpos_adr_[k]] = p.q[static_cast<Index>(k)];
+      d->qvel[dof_adr_[k]] = p.qd[static_cast<Index>(k)];
+      d->ctrl[k] = p.q[static_cast<Index>(k)];  // hold the pose until the first step
+    }
+    mj_forward(m, d);  // also runs collision detection, for the contact flags
+    read_out(e);
+  }
+
+  /// True if the env's state is non-finite or exploded.
+  bool failed(const mjData* d) const {
+    const mjModel* m = model_.get();
+    for (int k = 0; k < m->nq; ++k)
+      if (!std::isfinite(d->qpos[k]) || std::abs(d->qpos[k]) > 1e4) return true;
+    for (int k = 0; k < m->nv; ++k)
+      if (!std::isfinite(d->qvel[k]) || std::abs(d->qvel[k]) > 1e4) return true;
+    return false;
+  }
+
+  template <class WriteCtrl>
+  void step_impl(WriteCtrl&& write_ctrl) {
+    const mjModel* m = model_.get();
+    pool_->parallel_for(0, envs_.size(), [&](std::size_t env) {
+      Env& e = envs_[env];
+      mjData* d = e.data.get();
+      write_ctrl(env, d->ctrl);
+      bool bad = false;
+      for (int s = 0; s < desc_.substeps && !bad; ++s) {
+        const mjtNum t0 = d->time;
+        mj_step(m, d);
+        bad = !(d->time > t0) || failed(d);  // MuJoCo resets data (time → 0) on instability
+      }
+      stats_.physics_reset[env] = bad ? 1 : 0;
+      if (bad) {
+        apply_reset(e);
+        return;
+      }
+      mj_kinematics(m, d);
+      mj_comPos(m, d);
+      mj_comVel(m, d);
+      read_out(e);
+    });
+    ++stats_.control_steps;
+    for (auto r : stats_.physics_reset) stats_.physics_resets += r;
+  }
+
+  /// Copies body poses, velocities and contacts of one env into the library's types.
+  void read_out(Env& e) const {
+    const mjModel* m = model_.get();
+    const mjData* d = e.data.get();
+    BodyStates& b = e.states;
+    mjtNum vel[6];
+    for (std::size_t i = 0; i < body_id_.size(); ++i) {
+      const int id = body_id_[i];
+      const auto c = static_cast<Index>(i);
+      b.pos.col(c) = Vec3(d->xpos[3 * id], d->xpos[3 * id + 1], d->xpos[3 * id + 2]);
+      b.rot[i] = Quat(d->xquat[4 * id], d->xquat[4 * id + 1], d->xquat[4 * id + 2], d->xquat[4 * id + 3]);
+      mj_objectVelocity(m, d, mjOBJ_BODY, id, vel, 0);  // [angular; linear], world orientation
+      b.ang_vel.col(c) = Vec3(vel[0], vel[1], vel[2]);
+      b.lin_vel.col(c) = Vec3(vel[3], vel[4], vel[5]);
+    }
+    std::fill(e.contacts.begin(), e.contacts.end(), 0);
+    for (int k = 0; k < d->ncon; ++k) {
+      const mjContact& c = d->contact[k];
+      int other = -1;
+      if (c.geom1 == floor_geom_) other = c.geom2;
+      else if (c.geom2 == floor_geom_) other = c.geom1;
+      if (other < 0) continue;
+      const int body = body_of_geom_[static_cast<std::size_t>(other)];
+      if (body >= 0) e.contacts[static_cast<std::size_t>(body)] = 1;
+    }
+  }
+
+  HumanoidDescription desc_;
+  mujoco_detail::ModelPtr model_;
+  std::unique_ptr<ThreadPool> owned_pool_;
+  ThreadPool* pool_ = nullptr;
+  std::vector<Env> envs_;
+  StepStats stats_;
+  std::vector<int> body_id_;       ///< (num_bodies) MuJoCo body id of skeleton body i
+  std::vector<int> qpos_adr_;      ///< (num_dofs) qpos address of DoF k
+  std::vector<int> dof_adr_;       ///< (num_dofs) qvel address of DoF k
+  std::vector<int> body_of_geom_;  ///< (ngeom) skeleton body of a MuJoCo geom, −1 for the floor
+  int floor_geom_ = -1;
+  int root_qpos_ = 0, root_dof_ = 0;
+};
+
+static_assert(Simulator<MujocoHumanoidSim>);
+
+}  // namespace maskadapt
