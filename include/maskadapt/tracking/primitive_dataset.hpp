@@ -1,0 +1,89 @@
+#pragma once
+/// \file primitive_dataset.hpp
+/// Training windows for the generator: every labelled clip is cut into overlapping primitives of
+/// H + F frames; each window is canonicalised to its first frame and encoded with
+/// `encode_frames` (frame_features.hpp). Frame j of a window occupies rows [j·D, (j+1)·D) of the
+/// flattened column (frames stacked in time order).
+#include <maskadapt/core/error.hpp>
+#include <maskadapt/core/rng.hpp>
+#include <maskadapt/core/types.hpp>
+#include <maskadapt/motion/skeleton.hpp>
+#include <maskadapt/tracking/frame_features.hpp>
+#include <maskadapt/tracking/generator.hpp>
+
+#include <string>
+#include <vector>
+
+namespace maskadapt::tracking {
+
+/// A world-frame clip at 30 Hz with its text descriptions (any one of them describes it).
+struct LabelledTrajectory {
+  std::string name;
+  std::vector<std::string> texts;
+  Trajectory motion;  ///< body_pos may be empty: it is recomputed by FK
+};
+
+struct PrimitiveDataset {
+  Index history_frames = 0, future_frames = 0, frame_dim = 0;
+  MatrixXf history;  ///< (H·D × N) raw features of the history frames
+  MatrixXf future;   ///< (F·D × N) raw features of the future frames
+  std::vector<int> clip;  ///< (N) index of the source clip of each window
+  std::vector<std::vector<std::string>> clip_texts;  ///< (num clips) texts of each clip
+  std::vector<std::string> clip_names;               ///< (num clips)
+
+  Index size() const { return history.cols(); }
+};
+
+/// Cuts every clip into windows of H + F frames with the given stride (frames). Clips shorter
+/// than H + F frames are skipped; throws if no window at all results.
+inline PrimitiveDataset make_primitive_dataset(const Skeleton& skel, const std::vector<LabelledTrajectory>& clips,
+                                               Index H, Index F, Index stride = 2) {
+  require(H >= 1 && F >= 1 && stride >= 1, "window sizes and stride must be ≥ 1", {{}, {}, "window"});
+  PrimitiveDataset d;
+  d.history_frames = H;
+  d.future_frames = F;
+  d.frame_dim = frame_feature_dim(skel);
+  const Index D = d.frame_dim, W = H + F;
+  std::vector<MatrixXf> windows;
+  for (std::size_t c = 0; c < clips.size(); ++c) {
+    const auto& clip = clips[c];
+    d.clip_texts.push_back(clip.texts);
+    d.clip_names.push_back(clip.name);
+    if (clip.motion.num_frames() < W) continue;
+    require(clip.motion.q.rows() == skel.num_dofs(), "clip '" + clip.name + "' does not match the skeleton", {{}, {}, "q"});
+    Trajectory world = clip.motion;
+    compute_body_positions(skel, world);
+    for (Index s = 0; s + W <= world.num_frames(); s += stride) {
+      const auto [local, frame] = canonicalize(world.slice(s, W), 0);
+      windows.push_back(encode_frames<float>(skel, local));
+      d.clip.push_back(static_cast<int>(c));
+    }
+  }
+  require(!windows.empty(), "no clip is long enough for one window of " + std::to_string(W) + " frames",
+          {{}, {}, "clips"});
+  const Index N = static_cast<Index>(windows.size());
+  d.history.resize(H * D, N);
+  d.future.resize(F * D, N);
+  for (Index n = 0; n < N; ++n) {
+    const MatrixXf& w = windows[static_cast<std::size_t>(n)];
+    d.history.col(n) = Eigen::Map<const VectorXf>(w.data(), H * D);
+    d.future.col(n) = Eigen::Map<const VectorXf>(w.data() + H * D, F * D);
+  }
+  return d;
+}
+
+/// B window indices drawn uniformly with replacement.
+inline std::vector<Index> sample_indices(Index n, Index B, Rng& rng) {
+  std::vector<Index> idx(static_cast<std::size_t>(B));
+  for (auto& i : idx) i = static_cast<Index>(rng.uniform_int(static_cast<std::uint64_t>(n)));
+  return idx;
+}
+
+/// Columns `idx` of x.
+inline MatrixXf gather_columns(const Eigen::Ref<const MatrixXf>& x, const std::vector<Index>& idx) {
+  MatrixXf out(x.rows(), static_cast<Index>(idx.size()));
+  for (std::size_t j = 0; j < idx.size(); ++j) out.col(static_cast<Index>(j)) = x.col(idx[j]);
+  return out;
+}
+
+}  // namespace maskadapt::tracking
