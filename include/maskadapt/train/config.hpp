@@ -61,7 +61,7 @@ struct NetworkConfig {
   std::vector<Index> critic_hidden = {256, 256};
   std::vector<Index> disc_hidden = {256, 128};
   std::string activation = "relu";   ///< relu | elu | silu | tanh
-  double init_log_std = -1.0;        ///< initial log σ of the Gaussian policy (radians of PD target)
+  double init_log_std = -2.9;        ///< log σ of the Gaussian policy (σ ≈ 0.055 rad of PD target; AMP/ASE value)
   bool learn_log_std = false;        ///< AMP keeps σ fixed
 };
 
