@@ -1,0 +1,335 @@
+#pragma once
+/// \file mlp.hpp
+/// Multi-layer perceptron, samples as columns: y (outputs × B) = f_L(W_L … f_1(W_1 x + b_1) … + b_L).
+///
+/// All parameters live in ONE flat vector (`params()`, inside a ParameterBlock together with the
+/// gradients and Adam moments). Layer l (0-based, L = hidden.size() + 1 layers) occupies
+///
+///     [ W_l (out_l × in_l, column-major) | b_l (out_l) ]
+///
+/// in order, layer after layer. `weight(l)` / `bias(l)` are Eigen::Map views into that vector.
+///
+/// Two forward paths:
+///  - `forward(x, y, workspace)`: inference; allocates nothing once `workspace` has seen a batch at
+///    least this large (rollouts, one workspace per thread);
+///  - `forward_train(x, cache)`: keeps the input, every pre-activation z_l and activation a_l for
+///    `backward` (and for double back-propagation: see TrainCache).
+#include <algorithm>
+#include <cmath>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "maskadapt/core/error.hpp"
+#include "maskadapt/core/rng.hpp"
+#include "maskadapt/core/types.hpp"
+#include "maskadapt/nn/activation.hpp"
+#include "maskadapt/nn/parameter_block.hpp"
+
+namespace maskadapt::nn {
+
+/// Architecture of an Mlp. Layer l maps layer_inputs(l) → layer_outputs(l).
+struct MlpSpec {
+  Index inputs = 0;
+  std::vector<Index> hidden;  ///< hidden widths, e.g. {1024, 1024, 512} (paper) or {256, 256} (cpu preset)
+  Index outputs = 0;
+  Activation activation = Activation::ReLU;            ///< after every hidden layer
+  Activation output_activation = Activation::Identity;  ///< after the last layer
+
+  Index num_layers() const { return static_cast<Index>(hidden.size()) + 1; }
+  Index layer_inputs(Index l) const { return l == 0 ? inputs : hidden[static_cast<std::size_t>(l - 1)]; }
+  Index layer_outputs(Index l) const {
+    return l == num_layers() - 1 ? outputs : hidden[static_cast<std::size_t>(l)];
+  }
+  Activation layer_activation(Index l) const { return l == num_layers() - 1 ? output_activation : activation; }
+  /// Largest hidden width (0 without hidden layers).
+  Index max_hidden() const {
+    Index m = 0;
+    for (Index h : hidden) m = std::max(m, h);
+    return m;
+  }
+  /// Total parameter count Σ_l out_l·(in_l + 1).
+  Index num_params() const {
+    Index n = 0;
+    for (Index l = 0; l < num_layers(); ++l) n += layer_outputs(l) * (layer_inputs(l) + 1);
+    return n;
+  }
+  /// Throws maskadapt::Error unless every width is positive.
+  void validate() const {
+    require(inputs > 0, "inputs must be positive, got " + std::to_string(inputs), {{}, std::nullopt, "MlpSpec.inputs"});
+    require(outputs > 0, "outputs must be positive, got " + std::to_string(outputs), {{}, std::nullopt, "MlpSpec.outputs"});
+    for (std::size_t i = 0; i < hidden.size(); ++i)
+      require(hidden[i] > 0, "hidden width must be positive, got " + std::to_string(hidden[i]),
+              {{}, std::nullopt, "MlpSpec.hidden[" + std::to_string(i) + "]"});
+  }
+  bool operator==(const MlpSpec&) const = default;
+};
+
+/// Scratch for the inference path: two ping-pong buffers (max_hidden × capacity).
+/// One per thread; `Mlp::forward` grows it on first use, then never allocates again for batches
+/// ≤ capacity.
+template <class T>
+struct InferenceWorkspace {
+  MatrixX<T> a, b;  ///< (max_hidden × capacity) each
+  /// Pre-size for `spec` and batches up to `batch` (optional; forward does it lazily).
+  void reserve(const MlpSpec& spec, Index batch) {
+    const Index h = spec.max_hidden();
+    if (a.rows() < h || a.cols() < batch) a.resize(std::max(a.rows(), h), std::max(a.cols(), batch));
+    if (b.rows() < h || b.cols() < batch) b.resize(std::max(b.rows(), h), std::max(b.cols(), batch));
+  }
+};
+
+/// What backward needs, filled by `Mlp::forward_train`. For layer l:
+///   input  (inputs × B)  copy of x (= a_{-1})
+///   pre[l] (out_l × B)   z_l = W_l a_{l-1} + b_l
+///   post[l](out_l × B)   a_l = f_l(z_l); post.back() is the network output y
+/// Double back-propagation (gradient penalty) uses pre[l] with activation_second_derivative and
+/// the Mlp's weight(l).
+template <class T>
+struct TrainCache {
+  MatrixX<T> input;
+  std::vector<MatrixX<T>> pre;
+  std::vector<MatrixX<T>> post;
+  MatrixX<T> delta, back;  ///< backward scratch (max width × B), reused between calls
+
+  Index batch() const { return input.cols(); }
+  /// Input of layer l: a_{l-1} (in_l × B).
+  const MatrixX<T>& layer_input(Index l) const { return l == 0 ? input : post[static_cast<std::size_t>(l - 1)]; }
+  /// Network output (outputs × B).
+  const MatrixX<T>& output() const { return post.back(); }
+};
+
+template <class T>
+class Mlp {
+ public:
+  using Scalar = T;
+
+  Mlp() = default;
+  /// All parameters zero; call init().
+  explicit Mlp(MlpSpec spec) : spec_(std::move(spec)) {
+    spec_.validate();
+    block_ = ParameterBlock<T>(spec_.num_params());
+    offsets_.resize(static_cast<std::size_t>(spec_.num_layers()));
+    Index off = 0;
+    for (Index l = 0; l < spec_.num_layers(); ++l) {
+      offsets_[static_cast<std::size_t>(l)] = off;
+      off += spec_.layer_outputs(l) * (spec_.layer_inputs(l) + 1);
+    }
+  }
+  /// Parameters drawn with init(rng).
+  Mlp(MlpSpec spec, Rng& rng) : Mlp(std::move(spec)) { init(rng); }
+
+  /// PyTorch nn.Linear default initialisation, layer by layer: W_l ~ U(±1/√in_l) (that is
+  /// kaiming_uniform_(a=√5)), then b_l ~ U(±1/√in_l); draws in storage order (W column-major,
+  /// then b). Gradients and Adam moments are zeroed.
+  void init(Rng& rng) {
+    for (Index l = 0; l < num_layers(); ++l) {
+      const double bound = 1.0 / std::sqrt(static_cast<double>(spec_.layer_inputs(l)));
+      auto w = weight(l);
+      for (Index i = 0; i < w.size(); ++i) w.data()[i] = static_cast<T>(rng.uniform(-bound, bound));
+      auto bl = bias(l);
+      for (Index i = 0; i < bl.size(); ++i) bl[i] = static_cast<T>(rng.uniform(-bound, bound));
+    }
+    block_.grads().setZero();
+    block_.reset_optimizer_state();
+  }
+
+  const MlpSpec& spec() const { return spec_; }
+  Index num_layers() const { return spec_.num_layers(); }
+  Index inputs() const { return spec_.inputs; }
+  Index outputs() const { return spec_.outputs; }
+  Index num_params() const { return block_.size(); }
+
+  /// Flat parameters (num_params).
+  Eigen::Map<VectorX<T>> params() { return block_.params(); }
+  Eigen::Map<const VectorX<T>> params() const { return block_.params(); }
+  /// Flat gradient accumulator (num_params), same layout as params().
+  Eigen::Map<VectorX<T>> grads() { return block_.grads(); }
+  Eigen::Map<const VectorX<T>> grads() const { return block_.grads(); }
+  void zero_grad() { block_.zero_grad(); }
+  /// [params | grads | adam_m | adam_v] — hand this to Adam and to checkpoints.
+  ParameterBlock<T>& block() { return block_; }
+  const ParameterBlock<T>& block() const { return block_; }
+
+  /// Offset of W_l / b_l inside params() (and grads()).
+  Index weight_offset(Index l) const { return offsets_[static_cast<std::size_t>(l)]; }
+  Index bias_offset(Index l) const { return weight_offset(l) + spec_.layer_outputs(l) * spec_.layer_inputs(l); }
+
+  /// W_l (out_l × in_l), a view into params().
+  Eigen::Map<MatrixX<T>> weight(Index l) {
+    return {block_.params().data() + weight_offset(l), spec_.layer_outputs(l), spec_.layer_inputs(l)};
+  }
+  Eigen::Map<const MatrixX<T>> weight(Index l) const {
+    return {block_.params().data() + weight_offset(l), spec_.layer_outputs(l), spec_.layer_inputs(l)};
+  }
+  /// b_l (out_l), a view into params().
+  Eigen::Map<VectorX<T>> bias(Index l) { return {block_.params().data() + bias_offset(l), spec_.layer_outputs(l)}; }
+  Eigen::Map<const VectorX<T>> bias(Index l) const {
+    return {block_.params().data() + bias_offset(l), spec_.layer_outputs(l)};
+  }
+  /// ∂L/∂W_l and ∂L/∂b_l, views into grads().
+  Eigen::Map<MatrixX<T>> weight_grad(Index l) {
+    return {block_.grads().data() + weight_offset(l), spec_.layer_outputs(l), spec_.layer_inputs(l)};
+  }
+  Eigen::Map<VectorX<T>> bias_grad(Index l) { return {block_.grads().data() + bias_offset(l), spec_.layer_outputs(l)}; }
+
+  // ---- inference --------------------------------------------------------------------------
+
+  /// y (outputs × B) = net(x), x (inputs × B). No allocation once `ws` holds batch B (it grows
+  /// on first use). Thread-safe for distinct workspaces. `y` must not alias `x`.
+  void forward(const Eigen::Ref<const MatrixX<T>>& x, Eigen::Ref<MatrixX<T>> y, InferenceWorkspace<T>& ws) const {
+    const Index batch = x.cols();
+    check_input(x, "forward");
+    require(y.rows() == outputs() && y.cols() == batch,
+            "output must be " + std::to_string(outputs()) + "x" + std::to_string(batch) + ", got " +
+                std::to_string(y.rows()) + "x" + std::to_string(y.cols()),
+            {{}, std::nullopt, "Mlp::forward.y"});
+    const Index L = num_layers();
+    if (L > 1) ws.reserve(spec_, batch);
+    MatrixX<T>* bufs[2] = {&ws.a, &ws.b};
+    for (Index l = 0; l < L; ++l) {
+      const Index out = spec_.layer_outputs(l), in = spec_.layer_inputs(l);
+      const bool last = l == L - 1;
+      if (last) {
+        if (l == 0) {
+          y.noalias() = weight(l) * x;
+        } else {
+          y.noalias() = weight(l) * bufs[(l - 1) & 1]->topLeftCorner(in, batch);
+        }
+        bias_activate(y, bias(l), spec_.layer_activation(l));
+      } else {
+        auto z = bufs[l & 1]->topLeftCorner(out, batch);
+        if (l == 0) {
+          z.noalias() = weight(l) * x;
+        } else {
+          z.noalias() = weight(l) * bufs[(l - 1) & 1]->topLeftCorner(in, batch);
+        }
+        bias_activate(z, bias(l), spec_.layer_activation(l));
+      }
+    }
+  }
+
+  /// Allocating convenience: returns net(x) (outputs × B).
+  MatrixX<T> forward(const Eigen::Ref<const MatrixX<T>>& x) const {
+    InferenceWorkspace<T> ws;
+    MatrixX<T> y(outputs(), x.cols());
+    forward(x, y, ws);
+    return y;
+  }
+
+  // ---- training ---------------------------------------------------------------------------
+
+  /// Forward pass that fills `cache` (see TrainCache) and returns the output (outputs × B),
+  /// a reference into the cache. Reusing a cache with the same batch size allocates nothing.
+  const MatrixX<T>& forward_train(const Eigen::Ref<const MatrixX<T>>& x, TrainCache<T>& cache) const {
+    check_input(x, "forward_train");
+    const Index batch = x.cols(), L = num_layers();
+    cache.input = x;
+    cache.pre.resize(static_cast<std::size_t>(L));
+    cache.post.resize(static_cast<std::size_t>(L));
+    for (Index l = 0; l < L; ++l) {
+      const auto i = static_cast<std::size_t>(l);
+      const Activation act = spec_.layer_activation(l);
+      cache.pre[i].resize(spec_.layer_outputs(l), batch);
+      cache.pre[i].noalias() = weight(l) * cache.layer_input(l);
+      cache.pre[i].colwise() += bias(l);
+      cache.post[i].resize(spec_.layer_outputs(l), batch);
+      apply_activation<T>(act, cache.pre[i], cache.post[i]);
+    }
+    return cache.post.back();
+  }
+
+  /// Back-propagates dy = ∂L/∂y (outputs × B) through the pass recorded in `cache`:
+  /// ADDS ∂L/∂θ into `grad` (num_params, layout of params(); usually grads()) and, when `dx` is
+  /// given, writes ∂L/∂x (inputs × B) into it (resized). Uses the cache's scratch buffers.
+  void backward(TrainCache<T>& cache, const Eigen::Ref<const MatrixX<T>>& dy, Eigen::Ref<VectorX<T>> grad,
+                MatrixX<T>* dx = nullptr) const {
+    const Index batch = cache.batch(), L = num_layers();
+    require(static_cast<Index>(cache.post.size()) == L && cache.input.rows() == inputs(),
+            "cache was not filled by forward_train of this network", {{}, std::nullopt, "Mlp::backward.cache"});
+    require(dy.rows() == outputs() && dy.cols() == batch,
+            "dy must be " + std::to_string(outputs()) + "x" + std::to_string(batch) + ", got " +
+                std::to_string(dy.rows()) + "x" + std::to_string(dy.cols()),
+            {{}, std::nullopt, "Mlp::backward.dy"});
+    require(grad.size() == num_params(),
+            "grad must have " + std::to_string(num_params()) + " entries, got " + std::to_string(grad.size()),
+            {{}, std::nullopt, "Mlp::backward.grad"});
+    Index width = std::max(inputs(), outputs());
+    width = std::max(width, spec_.max_hidden());
+    if (cache.delta.rows() < width || cache.delta.cols() != batch) cache.delta.resize(width, batch);
+    if (cache.back.rows() < width || cache.back.cols() != batch) cache.back.resize(width, batch);
+    MatrixX<T>* cur = &cache.delta;  // holds δ_l = ∂L/∂z_l
+    MatrixX<T>* nxt = &cache.back;   // receives ∂L/∂a_{l-1}
+    // δ_{L-1} = dy ⊙ f'(z_{L-1})
+    {
+      const Index out = outputs();
+      auto d = cur->topLeftCorner(out, batch);
+      d = dy;
+      mul_derivative(d, cache.pre.back(), spec_.output_activation);
+    }
+    for (Index l = L - 1; l >= 0; --l) {
+      const Index out = spec_.layer_outputs(l), in = spec_.layer_inputs(l);
+      auto d = cur->topLeftCorner(out, batch);
+      Eigen::Map<MatrixX<T>> gW(grad.data() + weight_offset(l), out, in);
+      Eigen::Map<VectorX<T>> gb(grad.data() + bias_offset(l), out);
+      gW.noalias() += d * cache.layer_input(l).transpose();
+      gb += d.rowwise().sum();
+      if (l > 0) {
+        auto da = nxt->topLeftCorner(in, batch);
+        da.noalias() = weight(l).transpose() * d;
+        mul_derivative(da, cache.pre[static_cast<std::size_t>(l - 1)], spec_.activation);
+        std::swap(cur, nxt);
+      } else if (dx != nullptr) {
+        dx->resize(in, batch);
+        dx->noalias() = weight(l).transpose() * d;
+      }
+    }
+  }
+
+ private:
+  void check_input(const Eigen::Ref<const MatrixX<T>>& x, const char* where) const {
+    require(num_layers() > 0 && num_params() > 0, "network is empty (default-constructed)",
+            {{}, std::nullopt, std::string("Mlp::") + where});
+    require(x.rows() == inputs(),
+            "input must have " + std::to_string(inputs()) + " rows, got " + std::to_string(x.rows()),
+            {{}, std::nullopt, std::string("Mlp::") + where + ".x"});
+  }
+
+  /// z = f(z + b) column by column (one pass over memory).
+  template <class Z>
+  static void bias_activate(Z&& z, const Eigen::Map<const VectorX<T>>& b, Activation act) {
+    const Index rows = z.rows();
+    for (Index j = 0; j < z.cols(); ++j) {
+      auto c = z.col(j);
+      switch (act) {
+        case Activation::Identity: c += b; break;
+        case Activation::ReLU: c = (c + b).cwiseMax(T(0)); break;
+        default:
+          for (Index i = 0; i < rows; ++i) c[i] = activation_value(act, c[i] + b[i]);
+      }
+    }
+  }
+
+  /// d ⊙= f'(z).
+  template <class D>
+  static void mul_derivative(D&& d, const MatrixX<T>& z, Activation act) {
+    if (act == Activation::Identity) return;
+    const Index rows = d.rows();
+    for (Index j = 0; j < d.cols(); ++j) {
+      auto c = d.col(j);
+      const auto zc = z.col(j);
+      if (act == Activation::ReLU) {
+        c = (zc.array() > T(0)).select(c, T(0));
+      } else {
+        for (Index i = 0; i < rows; ++i) c[i] *= activation_derivative(act, zc[i]);
+      }
+    }
+  }
+
+  MlpSpec spec_;
+  ParameterBlock<T> block_;
+  std::vector<Index> offsets_;
+};
+
+}  // namespace maskadapt::nn
