@@ -1,0 +1,122 @@
+#pragma once
+/// \file mi_loss.hpp
+/// The mask-invariant (MI) loss of the base policy.
+///
+///     L_MI = mean_j KL( π(·|s_j, m⁰)  ‖  π(·|s̄_j, m_j) ),     s̄ = (1 − m) ⊙ s
+///
+/// p = π(·|s, m⁰) — the policy on the full, unmasked observation with the null mask — is the
+/// *target*: gradients do not flow through it (stop-gradient). q = π(·|s̄, m), the policy on the
+/// masked input, is pulled towards it. The total actor loss is L_PPO + λ_MI·L_MI (λ_MI = 1.0 in
+/// the paper; 0 disables the term).
+///
+/// Both distributions share the state-independent log-std, so KL reduces to the mean term
+/// ½ Σ_i (μp,i − μq,i)²/σ_i²; when the log-std is *learned*, the gradient w.r.t. q's
+/// log-std (1 − (σp² + (μp−μq)²)/σq², with σp fixed as target) is added to it too.
+///
+/// Input layout assumed by `unmasked_policy_input` / `masked_policy_input`: the policy input is
+/// [s ; mask bits] with one 0/1 row per body part (null mask = all zeros), as mask/apply.hpp
+/// builds it.
+#include <maskadapt/core/error.hpp>
+#include <maskadapt/core/types.hpp>
+#include <maskadapt/mask/parts.hpp>
+#include <maskadapt/nn/kl.hpp>
+#include <maskadapt/nn/mlp.hpp>
+#include <maskadapt/rl/actor_critic.hpp>
+
+#include <type_traits>
+#include <vector>
+
+namespace maskadapt::adapt {
+
+/// λ_MI (paper: 1.0; 0 disables).
+struct MiLossConfig {
+  double lambda = 1.0;
+};
+
+struct MiLossResult {
+  double kl = 0;    ///< mean_j KL_j (reported even when λ = 0)
+  double loss = 0;  ///< λ·kl
+};
+
+/// Core of the loss on action means. p = N(mu_full, σ), q = N(mu_masked, σ) with the shared
+/// log_std (action_dim × 1). Returns mean KL; ADDS λ·∂L_MI/∂mu_masked into `dmu_masked`
+/// (action_dim × B, resized+zeroed if empty) and, when `dlog_std` is non-null, λ·∂L_MI/∂logσ_q
+/// into it (action_dim × 1). Nothing is added when λ = 0.
+template <class T>
+MiLossResult mi_loss_on_means(const Eigen::Ref<const MatrixX<T>>& mu_full, const Eigen::Ref<const MatrixX<T>>& mu_masked,
+                              const Eigen::Ref<const MatrixX<T>>& log_std, double lambda, MatrixX<T>& dmu_masked,
+                              MatrixX<T>* dlog_std) {
+  require(lambda >= 0, "lambda_MI must be >= 0", {{}, {}, "lambda_mi"});
+  nn::KlGrads<T> g;
+  if (lambda > 0) {
+    g.mean_q = &dmu_masked;
+    g.log_std_q = dlog_std;
+  }
+  MiLossResult r;
+  r.kl = static_cast<double>(nn::kl_diag_gaussian_mean<T>(mu_full, log_std, mu_masked, log_std, g,
+                                                          nn::KlOptions{true, lambda}));
+  r.loss = lambda * r.kl;
+  return r;
+}
+
+/// Reusable buffers for mi_loss.
+template <class T>
+struct MiWorkspace {
+  MatrixX<T> norm_full, norm_masked, mu_full, dmu, dlog_std;
+  nn::InferenceWorkspace<T> ws;
+  nn::TrainCache<T> cache;
+};
+
+/// Whole MI loss for `actor`: full_input = policy input with the null mask (input_dim × B),
+/// masked_input = [s̄ ; m] (input_dim × B). Returns the loss and ADDS λ·∂L_MI/∂θ into
+/// actor.mean_net.grads() (and into actor.log_std.grads() when the log-std is learned).
+template <class T>
+MiLossResult mi_loss(rl::GaussianActor<T>& actor, const std::type_identity_t<Eigen::Ref<const MatrixX<T>>>& full_input,
+                     const std::type_identity_t<Eigen::Ref<const MatrixX<T>>>& masked_input, double lambda,
+                     MiWorkspace<T>& w) {
+  require(full_input.rows() == actor.input_dim() && masked_input.rows() == actor.input_dim() &&
+              full_input.cols() == masked_input.cols() && full_input.cols() > 0,
+          "full and masked inputs must both be (policy_input_dim × B) with B > 0", {{}, {}, "mi_loss"});
+  const Index B = full_input.cols(), d = actor.action_dim();
+  actor.normalize(full_input, w.norm_full);
+  w.mu_full.resize(d, B);
+  actor.mean_net.forward(w.norm_full, w.mu_full, w.ws);  // target: no cache, no gradient
+  actor.normalize(masked_input, w.norm_masked);
+  const MatrixX<T>& mu_masked = actor.mean_net.forward_train(w.norm_masked, w.cache);
+  w.dmu.setZero(d, B);
+  w.dlog_std.setZero(d, 1);
+  const MiLossResult r = mi_loss_on_means<T>(w.mu_full, mu_masked, actor.log_std_col(), lambda, w.dmu,
+                                             actor.learn_log_std ? &w.dlog_std : nullptr);
+  if (lambda > 0) {
+    actor.mean_net.backward(w.cache, w.dmu, actor.mean_net.grads());
+    if (actor.learn_log_std) actor.log_std.grads() += w.dlog_std.col(0);
+  }
+  return r;
+}
+
+/// [s ; 0] (policy_input_dim × B): the policy input of the full observation with the null mask.
+template <class T>
+void unmasked_policy_input(const Eigen::Ref<const MatrixX<T>>& obs, Index policy_input_dim, MatrixX<T>& out) {
+  require(policy_input_dim >= obs.rows(), "policy input is smaller than the observation",
+          {{}, {}, "unmasked_policy_input"});
+  out.setZero(policy_input_dim, obs.cols());
+  out.topRows(obs.rows()) = obs;
+}
+
+/// [(1 − m)⊙s ; mask bits] (obs_dim + kNumParts × B) for one mask per column.
+/// \param element_parts part of every observation element (obs_dim)
+template <class T>
+void masked_policy_input(const Eigen::Ref<const MatrixX<T>>& obs, const std::vector<BodyPart>& element_parts,
+                         const std::vector<PartMask>& masks, MatrixX<T>& out) {
+  require(static_cast<Index>(element_parts.size()) == obs.rows(), "need one body part per observation element",
+          {{}, {}, "element_parts"});
+  require(static_cast<Index>(masks.size()) == obs.cols(), "need one mask per column", {{}, {}, "masks"});
+  out.resize(obs.rows() + kNumParts, obs.cols());
+  for (Index j = 0; j < obs.cols(); ++j) {
+    const PartMask m = masks[static_cast<std::size_t>(j)];
+    for (Index i = 0; i < obs.rows(); ++i) out(i, j) = m.has(element_parts[static_cast<std::size_t>(i)]) ? T(0) : obs(i, j);
+    for (int p = 0; p < kNumParts; ++p) out(obs.rows() + p, j) = m.has(static_cast<BodyPart>(p)) ? T(1) : T(0);
+  }
+}
+
+}  // namespace maskadapt::adapt
