@@ -1,0 +1,469 @@
+#pragma once
+/// \file base_trainer.hpp
+/// The stage-1 trainer: mask-invariant AMP base policy over any `Simulator`.
+///
+/// One iteration:
+///  1. collection — `horizon` control steps of all N envs (ImitationTask): the actor samples PD
+///     targets from π(·|s̄, m) on the no-allocation inference path, the critic evaluates the full
+///     state, the running input normalisers see every step;
+///  2. rewards — the discriminator scores each transition's 5-frame window of unmasked features:
+///     r = scale·(−log(max(1 − D, 1e−4))) (or the LSGAN reward);
+///  3. GAE (γ, λ) with terminations (no bootstrap) and truncations (bootstrap with V(final s));
+///  4. PPO epochs over minibatches: clipped surrogate + critic_weight·value loss + λ_MI·L_MI,
+///     L_MI = KL(π(·|s, m⁰) ‖ π(·|s̄, m)) with the full-observation policy as stop-gradient target;
+///  5. discriminator steps: motion-library windows (real) vs fresh + replayed agent windows.
+/// Every optimiser step is checked (nn::Adam): a non-finite gradient skips the step, keeps the
+/// last good parameters, and is counted in `skipped_updates`.
+///
+/// All randomness comes from the trainer's Rng (actions, minibatches, discriminator batches)
+/// and the task's per-env streams, all checkpointed: `save`/`load` continue bit-exactly when the
+/// simulator can save its state (tasks::StateSavingSimulator).
+#include <maskadapt/adapt/mi_loss.hpp>
+#include <maskadapt/core/checkpoint.hpp>
+#include <maskadapt/core/error.hpp>
+#include <maskadapt/core/rng.hpp>
+#include <maskadapt/nn/adam.hpp>
+#include <maskadapt/nn/gaussian.hpp>
+#include <maskadapt/nn/mlp.hpp>
+#include <maskadapt/nn/normalizer.hpp>
+#include <maskadapt/rl/actor_critic.hpp>
+#include <maskadapt/rl/amp_loss.hpp>
+#include <maskadapt/rl/gae.hpp>
+#include <maskadapt/rl/ppo_loss.hpp>
+#include <maskadapt/rl/replay_buffer.hpp>
+#include <maskadapt/rl/rollout_buffer.hpp>
+#include <maskadapt/tasks/imitation.hpp>
+#include <maskadapt/train/config.hpp>
+#include <maskadapt/train/progress.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <functional>
+#include <string>
+#include <vector>
+
+namespace maskadapt::train {
+
+using RowVectorXf = RowVectorX<float>;
+
+/// Fills `out` (amp_dim × B, already sized) with B real discriminator windows drawn with `rng`
+/// (motion-library windows of 5 frames of unmasked features, same layout as the task's).
+using RealWindowSampler = std::function<void(Rng& rng, Eigen::Ref<MatrixXf> out)>;
+
+inline nn::Activation activation_from_name(const std::string& name) {
+  if (name == "relu") return nn::Activation::ReLU;
+  if (name == "elu") return nn::Activation::ELU;
+  if (name == "silu") return nn::Activation::SiLU;
+  if (name == "tanh") return nn::Activation::Tanh;
+  throw Error("unknown activation '" + name + "'", {{}, std::nullopt, "net.activation"});
+}
+
+/// The task configuration implied by a trainer config.
+inline tasks::ImitationTaskConfig task_config(const BaseTrainConfig& c, std::optional<FallCriteria> fall = std::nullopt) {
+  tasks::ImitationTaskConfig t;
+  t.fall = std::move(fall);
+  t.episode_seconds = c.env.episode_seconds;
+  t.early_termination = c.env.early_termination;
+  t.min_head_height = c.env.termination_height;
+  t.masking = c.mask.enabled;
+  t.mask_prob = c.mask.prob;
+  t.max_masked_parts = c.mask.max_parts;
+  return t;
+}
+
+/// Networks of a base policy (what `play`/`eval-base` and stage 2 load from a checkpoint).
+struct BasePolicy {
+  rl::ActorCritic<float> ac;
+  nn::Mlp<float> disc;                    ///< amp_dim → 1 logit
+  nn::RunningNormalizer<float> disc_norm; ///< over discriminator windows
+};
+
+template <Simulator Sim>
+class BaseTrainer {
+ public:
+  /// `fall`: fall criteria for a skeleton other than the reference humanoid (default: the
+  /// humanoid's feet/toes/hands contacts + head height `env.termination_height`).
+  BaseTrainer(Sim& sim, tasks::ResetSampler reset, RealWindowSampler real, BaseTrainConfig config,
+              ThreadPool* pool = nullptr, std::optional<FallCriteria> fall = std::nullopt)
+      : cfg_((config.validate(), std::move(config))),
+        task_(sim, std::move(reset), task_config(cfg_, std::move(fall)), cfg_.run.seed, pool),
+        real_(std::move(real)),
+        rng_(Rng::stream(cfg_.run.seed, 0xB45E0000ULL)) {
+    require(static_cast<bool>(real_), "no real window sampler given", {{}, {}, "real_sampler"});
+    Rng init = Rng::stream(cfg_.run.seed, 0x1A17ULL);
+    rl::ActorCriticConfig ac;
+    ac.policy_input_dim = task_.policy_input_dim();
+    ac.critic_input_dim = task_.obs_dim();
+    ac.action_dim = task_.action_dim();
+    ac.actor_hidden = cfg_.net.actor_hidden;
+    ac.critic_hidden = cfg_.net.critic_hidden;
+    ac.activation = activation_from_name(cfg_.net.activation);
+    ac.init_log_std = cfg_.net.init_log_std;
+    ac.learn_log_std = cfg_.net.learn_log_std;
+    policy_.ac = rl::ActorCritic<float>(ac, init);
+    policy_.disc = nn::Mlp<float>(nn::MlpSpec{task_.amp_dim(), cfg_.net.disc_hidden, 1, ac.activation}, init);
+    policy_.disc_norm = nn::RunningNormalizer<float>(task_.amp_dim(), 5.0);
+    actor_opt_ = nn::Adam<float>({cfg_.ppo.actor_lr, 0.9, 0.999, 1e-8, 0.0, false, cfg_.ppo.max_grad_norm});
+    critic_opt_ = nn::Adam<float>({cfg_.ppo.critic_lr, 0.9, 0.999, 1e-8, 0.0, false, cfg_.ppo.max_grad_norm});
+    disc_opt_ = nn::Adam<float>({cfg_.disc.lr, 0.9, 0.999, 1e-8, cfg_.disc.weight_decay, false, cfg_.ppo.max_grad_norm});
+    rl::RolloutSpec spec;
+    spec.horizon = cfg_.ppo.horizon;
+    spec.num_envs = task_.num_envs();
+    spec.obs_dim = task_.obs_dim();
+    spec.policy_input_dim = task_.policy_input_dim();
+    spec.action_dim = task_.action_dim();
+    spec.amp_dim = task_.amp_dim();
+    buf_.resize(spec);
+    replay_ = rl::ReplayBuffer<float>(task_.amp_dim(), cfg_.disc.replay_size);
+  }
+
+  const BaseTrainConfig& config() const { return cfg_; }
+  tasks::ImitationTask<Sim>& task() { return task_; }
+  const BasePolicy& policy() const { return policy_; }
+  long long iteration() const { return iteration_; }
+  long long samples() const { return samples_; }
+
+  /// Runs one iteration (collection, rewards, GAE, PPO + MI, discriminator) and returns its stats.
+  IterationStats iterate() {
+    IterationStats st;
+    Stopwatch total;
+    task_.stats().clear();
+    collect(st);
+    Stopwatch upd;
+    compute_rewards(st);
+    rl::compute_gae(buf_, rl::GaeParams{cfg_.ppo.gamma, cfg_.ppo.gae_lambda});
+    update_policy(st);
+    update_discriminator(st);
+    st.time_update += upd.seconds();
+    ++iteration_;
+    samples_ += buf_.size();
+    const auto& es = task_.stats();
+    st.iteration = iteration_;
+    st.samples = samples_;
+    st.time_total = total.seconds();
+    st.samples_per_s = static_cast<double>(buf_.size()) / std::max(1e-9, st.time_total);
+    st.episode_length = es.mean_length();
+    st.episodes = static_cast<double>(es.episodes);
+    st.fall_rate = es.fall_rate();
+    st.mask_fraction = es.steps > 0 ? static_cast<double>(es.masked_steps) / static_cast<double>(es.steps) : 0.0;
+    st.sim_resets = es.sim_resets;
+    return st;
+  }
+
+  // ---- checkpoints ------------------------------------------------------------------------
+
+  /// Everything needed to continue bit-exactly (and the config, for play/eval).
+  void save(Checkpoint& c) const {
+    c.put_string("config", to_json(cfg_).dump());
+    save_policy(policy_, c);
+    c.put("actor/adam", policy_.ac.actor.mean_net.block().storage());
+    c.put("actor/log_std_adam", policy_.ac.actor.log_std.storage());
+    c.put("critic/adam", policy_.ac.critic.net.block().storage());
+    c.put("disc/adam", policy_.disc.block().storage());
+    c.put_int("actor/adam_steps", actor_opt_.step_count());
+    c.put_int("critic/adam_steps", critic_opt_.step_count());
+    c.put_int("disc/adam_steps", disc_opt_.step_count());
+    c.put("replay/storage", replay_.storage());
+    c.put_int("replay/size", replay_.size());
+    c.put_int("replay/head", replay_.head());
+    c.put_rng("trainer/rng", rng_);
+    c.put_int("trainer/iteration", iteration_);
+    c.put_int("trainer/samples", samples_);
+    const auto ts = task_.save_state();
+    const auto n = static_cast<Index>(ts.rngs.size());
+    for (Index e = 0; e < n; ++e) {
+      const auto ue = static_cast<std::size_t>(e);
+      Rng r;
+      r.set_state(ts.rngs[ue]);
+      c.put_rng("task/rng/" + std::to_string(e), r);
+      c.put("task/history/" + std::to_string(e), ts.history[ue]);
+      if (!ts.sim.empty()) c.put("task/sim/" + std::to_string(e), Eigen::Map<const VectorXd>(ts.sim[ue].data(), static_cast<Index>(ts.sim[ue].size())));
+    }
+    VectorX<std::int64_t> steps(n), masks(n);
+    for (Index e = 0; e < n; ++e) {
+      steps[e] = ts.steps[static_cast<std::size_t>(e)];
+      masks[e] = ts.masks[static_cast<std::size_t>(e)];
+    }
+    c.put("task/steps", steps);
+    c.put("task/masks", masks);
+    c.put("task/obs", ts.obs);
+    c.put_int("task/has_sim_state", ts.sim.empty() ? 0 : 1);
+  }
+
+  void save(const std::string& path) const {
+    Checkpoint c;
+    save(c);
+    save_checkpoint(path, c);
+  }
+
+  /// Restores a checkpoint written by `save` for the same network sizes and env count. Throws
+  /// naming the section on any mismatch.
+  void load(const Checkpoint& c) {
+    load_policy(c, policy_);
+    c.copy_to<float>("actor/adam", policy_.ac.actor.mean_net.block().storage());
+    c.copy_to<float>("actor/log_std_adam", policy_.ac.actor.log_std.storage());
+    c.copy_to<float>("critic/adam", policy_.ac.critic.net.block().storage());
+    c.copy_to<float>("disc/adam", policy_.disc.block().storage());
+    actor_opt_.set_step_count(c.get_int("actor/adam_steps"));
+    critic_opt_.set_step_count(c.get_int("critic/adam_steps"));
+    disc_opt_.set_step_count(c.get_int("disc/adam_steps"));
+    replay_.restore(c.get_matrix<float>("replay/storage", task_.amp_dim(), cfg_.disc.replay_size),
+                    c.get_int("replay/size"), c.get_int("replay/head"));
+    rng_.set_state(c.get_rng("trainer/rng"));
+    iteration_ = c.get_int("trainer/iteration");
+    samples_ = c.get_int("trainer/samples");
+    typename tasks::ImitationTask<Sim>::State ts;
+    const Index n = task_.num_envs();
+    const auto steps = c.get_vector<std::int64_t>("task/steps", n);
+    const auto masks = c.get_vector<std::int64_t>("task/masks", n);
+    const bool has_sim = c.get_int("task/has_sim_state") != 0;
+    for (Index e = 0; e < n; ++e) {
+      ts.rngs.push_back(c.get_rng("task/rng/" + std::to_string(e)));
+      ts.history.push_back(c.get_matrix<float>("task/history/" + std::to_string(e), task_.obs_dim(), tasks::kAmpWindowFrames));
+      ts.steps.push_back(steps[e]);
+      ts.masks.push_back(static_cast<std::uint8_t>(masks[e]));
+      if (has_sim) {
+        const VectorXd v = c.get_vector<double>("task/sim/" + std::to_string(e));
+        ts.sim.emplace_back(v.data(), v.data() + v.size());
+      }
+    }
+    ts.obs = c.get_matrix<float>("task/obs", task_.obs_dim(), n);
+    task_.load_state(ts);
+  }
+
+  // ---- policy sections (shared with play / eval / stage 2) --------------------------------
+
+  static void save_normalizer(const nn::RunningNormalizer<float>& n, const std::string& name, Checkpoint& c) {
+    c.put_double(name + "/count", n.count());
+    c.put(name + "/mean", n.mean());
+    c.put(name + "/m2", n.m2());
+  }
+  static void load_normalizer(const Checkpoint& c, const std::string& name, nn::RunningNormalizer<float>& n) {
+    n.set_state(c.get_double(name + "/count"), c.get_vector<double>(name + "/mean", n.dim()),
+                c.get_vector<double>(name + "/m2", n.dim()));
+  }
+  static void save_policy(const BasePolicy& p, Checkpoint& c) {
+    c.put("actor/params", p.ac.actor.mean_net.params());
+    c.put("actor/log_std", p.ac.actor.log_std.params());
+    c.put("critic/params", p.ac.critic.net.params());
+    c.put("disc/params", p.disc.params());
+    save_normalizer(p.ac.actor.normalizer, "actor/norm", c);
+    save_normalizer(p.ac.critic.normalizer, "critic/norm", c);
+    save_normalizer(p.disc_norm, "disc/norm", c);
+  }
+  static void load_policy(const Checkpoint& c, BasePolicy& p) {
+    c.copy_to<float>("actor/params", p.ac.actor.mean_net.params());
+    c.copy_to<float>("actor/log_std", p.ac.actor.log_std.params());
+    c.copy_to<float>("critic/params", p.ac.critic.net.params());
+    c.copy_to<float>("disc/params", p.disc.params());
+    load_normalizer(c, "actor/norm", p.ac.actor.normalizer);
+    load_normalizer(c, "critic/norm", p.ac.critic.normalizer);
+    load_normalizer(c, "disc/norm", p.disc_norm);
+  }
+
+ private:
+  // ---- 1. collection ----------------------------------------------------------------------
+  void collect(IterationStats& st) {
+    const Index N = task_.num_envs(), H = cfg_.ppo.horizon, A = task_.action_dim();
+    auto& actor = policy_.ac.actor;
+    auto& critic = policy_.ac.critic;
+    mu_.resize(A, N);
+    values_.resize(1, N);
+    for (Index t = 0; t < H; ++t) {
+      Stopwatch inf;
+      const Index c0 = buf_.step_begin(t);
+      policy_.ac.update_normalizers(task_.policy_inputs(), task_.observations());
+      buf_.obs.middleCols(c0, N) = task_.observations();
+      buf_.policy_input.middleCols(c0, N) = task_.policy_inputs();
+      for (Index e = 0; e < N; ++e) buf_.masks[static_cast<std::size_t>(c0 + e)] = task_.masks()[static_cast<std::size_t>(e)];
+      actor.act(task_.policy_inputs(), rng_, actions_, logp_, mu_, actor_ws_, scratch_);
+      critic.value(task_.observations(), values_, critic_ws_, scratch_);
+      buf_.actions.middleCols(c0, N) = actions_;
+      buf_.log_probs.segment(c0, N) = logp_;
+      buf_.values.middleCols(c0, N) = values_;
+      st.time_inference += inf.seconds();
+
+      Stopwatch sim;
+      task_.step(actions_);
+      st.time_sim += sim.seconds();
+
+      Stopwatch inf2;
+      buf_.amp_windows.middleCols(c0, N) = task_.amp_windows();
+      bool any_truncated = false;
+      for (Index e = 0; e < N; ++e) {
+        const auto ue = static_cast<std::size_t>(e);
+        buf_.terminated[static_cast<std::size_t>(c0 + e)] = task_.terminated()[ue];
+        buf_.truncated[static_cast<std::size_t>(c0 + e)] = task_.truncated()[ue];
+        any_truncated |= task_.truncated()[ue] != 0;
+      }
+      if (any_truncated) {
+        critic.value(task_.final_observations(), values_, critic_ws_, scratch_);
+        buf_.final_values.middleCols(c0, N) = values_;
+      }
+      st.time_inference += inf2.seconds();
+    }
+    Stopwatch inf;
+    critic.value(task_.observations(), values_, critic_ws_, scratch_);
+    buf_.bootstrap_values = values_;
+    st.time_inference += inf.seconds();
+  }
+
+  // ---- 2. discriminator rewards -----------------------------------------------------------
+  void compute_rewards(IterationStats& st) {
+    const auto kind = cfg_.disc.lsgan ? rl::DiscriminatorLoss::LSGAN : rl::DiscriminatorLoss::BCE;
+    disc_logits(buf_.amp_windows, logit_);
+    const RowVectorXf r = rl::amp_reward<float>(kind, logit_) * static_cast<float>(cfg_.disc.reward_scale);
+    buf_.rewards.row(0) = r;
+    st.disc_reward = r.cast<double>().mean();
+  }
+
+  void disc_logits(const MatrixXf& x, RowVectorXf& out) {
+    disc_scratch_.resize(x.rows(), x.cols());
+    policy_.disc_norm.normalize(x, disc_scratch_);
+    disc_y_.resize(1, x.cols());
+    policy_.disc.forward(disc_scratch_, disc_y_, disc_ws_);
+    out = disc_y_.row(0);
+  }
+
+  // ---- 4. PPO + MI --------------------------------------------------------------------------
+  void update_policy(IterationStats& st) {
+    auto& actor = policy_.ac.actor;
+    auto& critic = policy_.ac.critic;
+    MatrixXf adv = buf_.advantages;
+    rl::normalize_rows(adv);
+    const Index n = buf_.size();
+    const Index nmb = std::max<Index>(1, std::min<Index>(n, n / std::max<Index>(1, cfg_.ppo.minibatch_size)));
+    double sum_pl = 0, sum_vl = 0, sum_kl = 0, sum_mi = 0, sum_cf = 0, sum_gn = 0;
+    int count = 0;
+    MatrixXf pin, act, obs, full, norm_in, norm_obs, dmu, dv, target, vold;
+    RowVectorXf lp_old, a_mb, lp_new, dlogp;
+    for (int epoch = 0; epoch < cfg_.ppo.epochs; ++epoch) {
+      for (const auto& idx : rl::minibatch_indices(n, nmb, rng_)) {
+        rl::gather_columns(buf_.policy_input, idx, pin);
+        rl::gather_columns(buf_.actions, idx, act);
+        rl::gather_columns(buf_.obs, idx, obs);
+        rl::gather_columns(buf_.returns, idx, target);
+        rl::gather_columns(buf_.values, idx, vold);
+        const Index B = static_cast<Index>(idx.size());
+        lp_old.resize(B);
+        a_mb.resize(B);
+        for (Index j = 0; j < B; ++j) {
+          lp_old[j] = buf_.log_probs[idx[static_cast<std::size_t>(j)]];
+          a_mb[j] = adv(0, idx[static_cast<std::size_t>(j)]);
+        }
+        // actor: clipped surrogate (+ action-bound penalty) + λ_MI·L_MI
+        actor.zero_grad();
+        actor.normalize(pin, norm_in);
+        const MatrixXf& mu = actor.mean_net.forward_train(norm_in, actor_cache_);
+        lp_new.resize(B);
+        nn::gaussian_log_prob<float>(mu, actor.log_std_col(), act, lp_new);
+        const auto sur = rl::clipped_surrogate<float>(lp_new, lp_old, a_mb, cfg_.ppo.clip, dlogp);
+        dmu.setZero(mu.rows(), B);
+        MatrixXf dls;
+        nn::gaussian_log_prob_backward<float>(mu, actor.log_std_col(), act, dlogp, &dmu,
+                                              actor.learn_log_std ? &dls : nullptr);
+        const float bound = static_cast<float>(M_PI), wb = static_cast<float>(cfg_.ppo.action_bound_weight);
+        dmu.array() += wb / static_cast<float>(B) *
+                       ((mu.array() - bound).max(0.0f) + (mu.array() + bound).min(0.0f)) * 2.0f;
+        actor.mean_net.backward(actor_cache_, dmu, actor.mean_net.grads());
+        if (actor.learn_log_std && dls.size()) actor.log_std.grads() += dls.col(0);
+        double mi_kl = 0;
+        if (cfg_.mask.enabled) {
+          adapt::unmasked_policy_input<float>(obs, task_.policy_input_dim(), full);
+          mi_kl = adapt::mi_loss<float>(actor, full, pin, cfg_.mask.lambda_mi, mi_ws_).kl;
+        }
+        const auto ar = actor_opt_.step(actor.trainable_blocks());
+        if (!ar.applied) ++st.skipped_updates;
+        // critic
+        critic.net.zero_grad();
+        critic.normalize(obs, norm_obs);
+        const MatrixXf& v = critic.net.forward_train(norm_obs, critic_cache_);
+        const double vl = rl::value_loss<float>(v, vold, target, 0.0, dv);
+        dv *= static_cast<float>(cfg_.ppo.critic_weight);
+        critic.net.backward(critic_cache_, dv, critic.net.grads());
+        const auto cr = critic_opt_.step(critic.net.block());
+        if (!cr.applied) ++st.skipped_updates;
+        sum_pl += sur.loss;
+        sum_vl += vl;
+        sum_kl += sur.approx_kl;
+        sum_cf += sur.clip_frac;
+        sum_mi += mi_kl;
+        sum_gn += ar.grad_norm;
+        ++count;
+      }
+    }
+    st.policy_loss = sum_pl / count;
+    st.value_loss = sum_vl / count;
+    st.approx_kl = sum_kl / count;
+    st.clip_frac = sum_cf / count;
+    st.mi_kl = sum_mi / count;
+    st.grad_norm = sum_gn / count;
+    st.entropy = nn::gaussian_entropy<float>(actor.log_std_col())(0);
+  }
+
+  // ---- 5. discriminator -------------------------------------------------------------------
+  void update_discriminator(IterationStats& st) {
+    const auto kind = cfg_.disc.lsgan ? rl::DiscriminatorLoss::LSGAN : rl::DiscriminatorLoss::BCE;
+    const Index n = buf_.size(), B = cfg_.disc.batch_size, half = B / 2, D = task_.amp_dim();
+    const Index steps = std::max<Index>(1, cfg_.disc.epochs * n / B);
+    MatrixXf real(D, B), fake(D, B), x(D, 2 * B), xn;
+    RowVectorXf g_real, g_fake;
+    double sum_real = 0, sum_fake = 0, sum_loss = 0;
+    for (Index s = 0; s < steps; ++s) {
+      real_(rng_, real);
+      for (Index j = 0; j < B - half; ++j)
+        fake.col(j) = buf_.amp_windows.col(static_cast<Index>(rng_.uniform_int(static_cast<std::uint64_t>(n))));
+      if (replay_.empty()) {
+        for (Index j = B - half; j < B; ++j)
+          fake.col(j) = buf_.amp_windows.col(static_cast<Index>(rng_.uniform_int(static_cast<std::uint64_t>(n))));
+      } else {
+        MatrixXf rep;
+        replay_.sample(half, rng_, rep);
+        fake.rightCols(half) = rep;
+      }
+      if (s == 0) {
+        policy_.disc_norm.update(real);
+        policy_.disc_norm.update(fake.leftCols(B - half));
+      }
+      x << real, fake;
+      xn.resize(D, 2 * B);
+      policy_.disc_norm.normalize(x, xn);
+      policy_.disc.zero_grad();
+      const MatrixXf& logits = policy_.disc.forward_train(xn, disc_cache_);
+      const auto obj = rl::amp_objective<float>(kind, logits.leftCols(B), logits.rightCols(B), g_real, g_fake);
+      MatrixXf dy(1, 2 * B);
+      dy << g_real, g_fake;
+      policy_.disc.backward(disc_cache_, dy, policy_.disc.grads());
+      // logit regularisation: L2 on the output layer's weights
+      const Index last = policy_.disc.num_layers() - 1;
+      policy_.disc.weight_grad(last) += static_cast<float>(2.0 * cfg_.disc.logit_reg) * policy_.disc.weight(last);
+      const auto r = disc_opt_.step(policy_.disc.block());
+      if (!r.applied) ++st.skipped_updates;
+      sum_real += obj.real_mean;
+      sum_fake += obj.fake_mean;
+      sum_loss += obj.loss;
+    }
+    replay_.push(buf_.amp_windows);
+    st.disc_real = sum_real / static_cast<double>(steps);
+    st.disc_fake = sum_fake / static_cast<double>(steps);
+    st.disc_loss = sum_loss / static_cast<double>(steps);
+  }
+
+  BaseTrainConfig cfg_;
+  tasks::ImitationTask<Sim> task_;
+  RealWindowSampler real_;
+  Rng rng_;
+  BasePolicy policy_;
+  nn::Adam<float> actor_opt_, critic_opt_, disc_opt_;
+  rl::RolloutBuffer<float> buf_;
+  rl::ReplayBuffer<float> replay_;
+  long long iteration_ = 0, samples_ = 0;
+  // workspaces (collection path allocates nothing once sized)
+  nn::InferenceWorkspace<float> actor_ws_, critic_ws_, disc_ws_;
+  nn::TrainCache<float> actor_cache_, critic_cache_, disc_cache_;
+  adapt::MiWorkspace<float> mi_ws_;
+  MatrixXf actions_, mu_, values_, scratch_, disc_scratch_, disc_y_;
+  RowVectorXf logp_, logit_;
+};
+
+}  // namespace maskadapt::train
