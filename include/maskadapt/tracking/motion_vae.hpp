@@ -56,7 +56,7 @@ struct MotionVaeConfig {
   Index latent = 32;                 ///< L
   std::vector<Index> hidden = {256, 256};
   nn::Activation activation = nn::Activation::ELU;
-  double kl_weight = 1e-3;           ///< β
+  double kl_weight = 1e-4;           ///< β (per-element MSE vs per-sample KL; larger values collapse the posterior)
   float max_log_var = 8.0f;          ///< log σ² is clamped to ±max_log_var (no gradient outside)
 };
 

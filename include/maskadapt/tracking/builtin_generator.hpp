@@ -1,0 +1,349 @@
+#pragma once
+/// \file builtin_generator.hpp
+/// The built-in text-conditioned generator: motion VAE (motion_vae.hpp) + latent diffusion
+/// (diffusion.hpp, latent_denoiser.hpp) + hashed text features (text_encoder.hpp). It satisfies
+/// `TrajectoryGenerator` (H = 5, F = 15 by default).
+///
+/// generate(text, history): h = normalise(encode_frames(history)) (H·D); the latent is sampled by
+/// DDPM (T = 10, cosine schedule) with classifier-free guidance, x̂₀ = w·f(x_t, t, e, h) +
+/// (1 − w)·f(x_t, t, 0, h), w = 5; the VAE decoder maps (h, latent_scale · x₀) to the F future
+/// frames, which are denormalised and decoded to a Trajectory in the history's canonical frame.
+///
+/// Save/load (core/checkpoint.hpp): section "generator.config" (JSON: sizes, activations,
+/// T, w, skeleton body names), the four networks' parameters ("vae.encoder", "vae.decoder",
+/// "denoiser.projection", "denoiser.net"), the normalisation statistics and "latent_scale".
+///
+/// Training (`train_generator`): stage 1 fits the VAE on all windows; stage 2 freezes it, encodes
+/// every window once to (μ, σ), and trains the denoiser on z = μ + σ ε / latent_scale with a
+/// random description of the window's clip as the condition (dropped with probability 0.1).
+#include <maskadapt/core/checkpoint.hpp>
+#include <maskadapt/core/error.hpp>
+#include <maskadapt/core/rng.hpp>
+#include <maskadapt/core/types.hpp>
+#include <maskadapt/motion/skeleton.hpp>
+#include <maskadapt/nn/adam.hpp>
+#include <maskadapt/tracking/diffusion.hpp>
+#include <maskadapt/tracking/frame_features.hpp>
+#include <maskadapt/tracking/generator.hpp>
+#include <maskadapt/tracking/latent_denoiser.hpp>
+#include <maskadapt/tracking/motion_vae.hpp>
+#include <maskadapt/tracking/primitive_dataset.hpp>
+#include <maskadapt/tracking/text_encoder.hpp>
+
+#include <nlohmann/json.hpp>
+
+#include <chrono>
+#include <filesystem>
+#include <functional>
+#include <string>
+#include <vector>
+
+namespace maskadapt::tracking {
+
+struct BuiltinGeneratorConfig {
+  MotionVaeConfig vae;             ///< H = 5, F = 15, L = 32, hidden [256, 256]
+  DenoiserConfig denoiser;         ///< K = 256, E = 32, hidden [256, 256], dropout 0.1
+  int diffusion_steps = 10;        ///< T
+  double guidance = 5.0;           ///< classifier-free guidance weight w
+};
+
+class BuiltinGenerator {
+ public:
+  BuiltinGenerator() = default;
+  BuiltinGenerator(const Skeleton& skel, BuiltinGeneratorConfig config, Rng& rng)
+      : skel_(skel), config_(std::move(config)), text_(config_.denoiser.text_features) {
+    skel_.validate();
+    vae_ = MotionVae(frame_feature_dim(skel_), config_.vae, rng);
+    denoiser_ = LatentDenoiser(config_.vae.latent, vae_.history_dim(), config_.denoiser, rng);
+    schedule_ = cosine_schedule(config_.diffusion_steps);
+    latent_scale_ = 1.0f;
+  }
+
+  // ---- TrajectoryGenerator ----------------------------------------------------------------
+  const Skeleton& skeleton() const { return skel_; }
+  Index history_frames() const { return config_.vae.history; }
+  Index future_frames() const { return config_.vae.future; }
+
+  /// F future frames after `history` (H frames, canonical; see generator.hpp).
+  Trajectory generate(const TextCondition& c, const Trajectory& history, Rng& rng) const {
+    require(history.num_frames() == history_frames(), "history must have H = " + std::to_string(history_frames()) +
+                                                          " frames, got " + std::to_string(history.num_frames()),
+            {{}, {}, "history"});
+    Trajectory h = history;
+    compute_body_positions(skel_, h);
+    const MatrixXf hf = encode_frames<float>(skel_, h);
+    const MatrixXf hn = vae_.history_stats.normalize(Eigen::Map<const MatrixXf>(hf.data(), hf.size(), 1));
+    const MatrixXf z = sample_latents(text_features(c), hn, rng);
+    const MatrixXf fut = vae_.future_stats.denormalize(vae_.decode(hn, z));
+    return decode_frames<float>(skel_, Eigen::Map<const MatrixXf>(fut.data(), vae_.frame_dim(), future_frames()), h.fps);
+  }
+
+  // ---- pieces ---------------------------------------------------------------------------------
+  /// Text features (K): the condition's embedding when given, else hashed features of the text
+  /// (zeros for an empty prompt = unconditional).
+  VectorXf text_features(const TextCondition& c) const {
+    if (c.embedding.size() > 0) {
+      require(c.embedding.size() == config_.denoiser.text_features,
+              "text embedding has " + std::to_string(c.embedding.size()) + " values, the generator expects " +
+                  std::to_string(config_.denoiser.text_features), {{}, {}, "embedding"});
+      require_finite(c.embedding, "embedding");
+      return c.embedding;
+    }
+    return text_.features(c.text);
+  }
+
+  /// VAE latents (L × B) for normalised histories hn (H·D × B) and text features (K × 1 or K × B):
+  /// guided DDPM, rescaled by latent_scale. An all-zero text feature column is sampled
+  /// unconditionally (no guidance).
+  MatrixXf sample_latents(const Eigen::Ref<const MatrixXf>& text_features, const Eigen::Ref<const MatrixXf>& hn,
+                          Rng& rng) const {
+    const Index B = hn.cols();
+    require(text_features.cols() == 1 || text_features.cols() == B, "one text per batch column (or one for all)",
+            {{}, {}, "text_features"});
+    MatrixXf tf = text_features.cols() == B ? MatrixXf(text_features) : MatrixXf(text_features.replicate(1, B));
+    const MatrixXf e = denoiser_.embed(tf);
+    const MatrixXf zero = MatrixXf::Zero(e.rows(), B);
+    const bool unconditional = tf.cwiseAbs().maxCoeff() == 0.0f;
+    const double w = config_.guidance;
+    auto predict = [&](const MatrixXf& xt, int t) -> MatrixXf {
+      const MatrixXf cond = denoiser_.predict(xt, t, unconditional ? zero : e, hn);
+      if (unconditional || w == 1.0) return cond;
+      return guided_prediction<float>(cond, denoiser_.predict(xt, t, zero, hn), w);
+    };
+    return latent_scale_ * ddpm_sample<float>(schedule_, vae_.latent_dim(), B, predict, rng);
+  }
+
+  // ---- persistence ---------------------------------------------------------------------------
+  void save(const std::filesystem::path& path) const {
+    Checkpoint ck;
+    ck.put_string("generator.format", "maskadapt.builtin_generator.v1");
+    ck.put_string("generator.config", config_json().dump());
+    ck.put("vae.encoder", vae_.encoder().params());
+    ck.put("vae.decoder", vae_.decoder().params());
+    ck.put("denoiser.projection", denoiser_.projection().params());
+    ck.put("denoiser.net", denoiser_.network().params());
+    ck.put("vae.history_mean", vae_.history_stats.mean);
+    ck.put("vae.history_std", vae_.history_stats.std);
+    ck.put("vae.future_mean", vae_.future_stats.mean);
+    ck.put("vae.future_std", vae_.future_stats.std);
+    ck.put_double("latent_scale", latent_scale_);
+    save_checkpoint(path, ck);
+  }
+
+  /// Loads a generator saved by save(); `skel` must be the skeleton it was trained on (checked
+  /// by body names). Every problem throws Error naming the file and section.
+  static BuiltinGenerator load(const std::filesystem::path& path, const Skeleton& skel) {
+    const Checkpoint ck = load_checkpoint(path);
+    const std::string file = path.string();
+    require(ck.get_string("generator.format") == "maskadapt.builtin_generator.v1", "not a built-in generator checkpoint",
+            {file, {}, "generator.format"});
+    nlohmann::json j;
+    try {
+      j = nlohmann::json::parse(ck.get_string("generator.config"));
+    } catch (const std::exception& e) {
+      throw Error(std::string("malformed generator config: ") + e.what(), {file, {}, "generator.config"});
+    }
+    BuiltinGeneratorConfig c;
+    std::vector<std::string> names;
+    try {
+      c.vae.history = j.at("history").get<Index>();
+      c.vae.future = j.at("future").get<Index>();
+      c.vae.latent = j.at("latent").get<Index>();
+      c.vae.hidden = j.at("vae_hidden").get<std::vector<Index>>();
+      c.vae.activation = nn::activation_from_string(j.at("vae_activation").get<std::string>());
+      c.vae.kl_weight = j.at("kl_weight").get<double>();
+      c.denoiser.text_features = j.at("text_features").get<Index>();
+      c.denoiser.text_embed = j.at("text_embed").get<Index>();
+      c.denoiser.time_embed = j.at("time_embed").get<Index>();
+      c.denoiser.hidden = j.at("denoiser_hidden").get<std::vector<Index>>();
+      c.denoiser.activation = nn::activation_from_string(j.at("denoiser_activation").get<std::string>());
+      c.denoiser.cond_dropout = j.at("cond_dropout").get<double>();
+      c.diffusion_steps = j.at("diffusion_steps").get<int>();
+      c.guidance = j.at("guidance").get<double>();
+      names = j.at("bodies").get<std::vector<std::string>>();
+    } catch (const Error&) {
+      throw;
+    } catch (const std::exception& e) {
+      throw Error(std::string("bad generator config: ") + e.what(), {file, {}, "generator.config"});
+    }
+    require(names == skel.names, "checkpoint was trained on another skeleton", {file, {}, "generator.config.bodies"});
+    Rng rng(0);
+    BuiltinGenerator g(skel, c, rng);
+    // Read everything first (validated), then assign.
+    const VectorXf enc = ck.get_vector<float>("vae.encoder", g.vae_.encoder().num_params());
+    const VectorXf dec = ck.get_vector<float>("vae.decoder", g.vae_.decoder().num_params());
+    const VectorXf proj = ck.get_vector<float>("denoiser.projection", g.denoiser_.projection().num_params());
+    const VectorXf net = ck.get_vector<float>("denoiser.net", g.denoiser_.network().num_params());
+    const Index hd = g.vae_.history_dim(), fd = g.vae_.future_dim();
+    FeatureStats hs{ck.get_vector<float>("vae.history_mean", hd), ck.get_vector<float>("vae.history_std", hd)};
+    FeatureStats fs{ck.get_vector<float>("vae.future_mean", fd), ck.get_vector<float>("vae.future_std", fd)};
+    const double scale = ck.get_double("latent_scale");
+    for (const VectorXf* v : std::initializer_list<const VectorXf*>{&enc, &dec, &proj, &net, &hs.mean, &hs.std, &fs.mean, &fs.std})
+      require_finite(*v, "parameters", file);
+    require((hs.std.array() > 0).all() && (fs.std.array() > 0).all(), "statistics have a non-positive std",
+            {file, {}, "vae.history_std"});
+    require(std::isfinite(scale) && scale > 0, "latent scale must be positive", {file, {}, "latent_scale"});
+    g.vae_.encoder().params() = enc;
+    g.vae_.decoder().params() = dec;
+    g.denoiser_.projection().params() = proj;
+    g.denoiser_.network().params() = net;
+    g.vae_.history_stats = std::move(hs);
+    g.vae_.future_stats = std::move(fs);
+    g.latent_scale_ = static_cast<float>(scale);
+    return g;
+  }
+
+  /// Sizes and settings as JSON (what save() stores).
+  nlohmann::json config_json() const {
+    return {{"history", config_.vae.history},
+            {"future", config_.vae.future},
+            {"latent", config_.vae.latent},
+            {"vae_hidden", config_.vae.hidden},
+            {"vae_activation", std::string(nn::to_string(config_.vae.activation))},
+            {"kl_weight", config_.vae.kl_weight},
+            {"text_features", config_.denoiser.text_features},
+            {"text_embed", config_.denoiser.text_embed},
+            {"time_embed", config_.denoiser.time_embed},
+            {"denoiser_hidden", config_.denoiser.hidden},
+            {"denoiser_activation", std::string(nn::to_string(config_.denoiser.activation))},
+            {"cond_dropout", config_.denoiser.cond_dropout},
+            {"diffusion_steps", config_.diffusion_steps},
+            {"guidance", config_.guidance},
+            {"bodies", skel_.names}};
+  }
+
+  const BuiltinGeneratorConfig& config() const { return config_; }
+  BuiltinGeneratorConfig& config() { return config_; }  ///< e.g. change the guidance weight
+  MotionVae& vae() { return vae_; }
+  const MotionVae& vae() const { return vae_; }
+  LatentDenoiser& denoiser() { return denoiser_; }
+  const LatentDenoiser& denoiser() const { return denoiser_; }
+  const NoiseSchedule& schedule() const { return schedule_; }
+  const HashedTextFeatures& text_encoder() const { return text_; }
+  /// Latents are divided by this before diffusion (std of the training latents).
+  float latent_scale() const { return latent_scale_; }
+  void set_latent_scale(float s) {
+    require(std::isfinite(s) && s > 0.0f, "latent scale must be positive", {{}, {}, "latent_scale"});
+    latent_scale_ = s;
+  }
+
+ private:
+  Skeleton skel_;
+  BuiltinGeneratorConfig config_;
+  HashedTextFeatures text_{256};
+  MotionVae vae_;
+  LatentDenoiser denoiser_;
+  NoiseSchedule schedule_;
+  float latent_scale_ = 1.0f;
+};
+
+static_assert(TrajectoryGenerator<BuiltinGenerator>);
+
+struct GeneratorTrainConfig {
+  Index vae_iterations = 2000;
+  Index diffusion_iterations = 2000;
+  double max_seconds = 0.0;  ///< > 0: wall-clock budget, split 50/50 between the stages (iterations become caps)
+  Index batch = 64;
+  double lr = 1e-3;
+  double max_grad_norm = 1.0;
+  Index log_every = 100;
+};
+
+struct GeneratorTrainReport {
+  Index vae_iterations = 0, diffusion_iterations = 0;
+  double vae_seconds = 0.0, diffusion_seconds = 0.0;
+  VaeLosses vae_final;              ///< mean over the last log window
+  double diffusion_final = 0.0;     ///< mean x₀ loss over the last log window
+};
+
+/// Trains `g` on `data` (windows of g's H and F frames). `log` receives progress lines.
+inline GeneratorTrainReport train_generator(BuiltinGenerator& g, const PrimitiveDataset& data,
+                                            const GeneratorTrainConfig& cfg, Rng& rng,
+                                            const std::function<void(const std::string&)>& log = {}) {
+  require(data.history_frames == g.history_frames() && data.future_frames == g.future_frames() &&
+              data.frame_dim == g.vae().frame_dim(),
+          "dataset windows do not match the generator's H, F or frame size", {{}, {}, "dataset"});
+  require(data.size() >= 1 && cfg.batch >= 1, "need data and a positive batch", {{}, {}, "batch"});
+  using clock = std::chrono::steady_clock;
+  auto say = [&](const std::string& s) { if (log) log(s); };
+  GeneratorTrainReport rep;
+  MotionVae& vae = g.vae();
+  vae.history_stats = FeatureStats::of(data.history);
+  vae.future_stats = FeatureStats::of(data.future);
+  const MatrixXf hn_all = vae.history_stats.normalize(data.history);
+  const MatrixXf fn_all = vae.future_stats.normalize(data.future);
+  nn::AdamConfig ac;
+  ac.lr = cfg.lr;
+  ac.max_grad_norm = cfg.max_grad_norm;
+  const double stage_budget = cfg.max_seconds > 0 ? 0.5 * cfg.max_seconds : 0.0;
+  const Index log_every = std::max<Index>(1, cfg.log_every);
+
+  // Stage 1: VAE.
+  {
+    nn::Adam<float> adam(ac);
+    const auto t0 = clock::now();
+    VaeLosses acc;
+    Index n_acc = 0;
+    for (Index it = 0; it < cfg.vae_iterations; ++it) {
+      const double el = std::chrono::duration<double>(clock::now() - t0).count();
+      if (stage_budget > 0 && el > stage_budget) break;
+      const auto idx = sample_indices(data.size(), cfg.batch, rng);
+      const VaeLosses l = vae.train_step(gather_columns(hn_all, idx), gather_columns(fn_all, idx), adam, rng);
+      acc.recon += l.recon; acc.kl += l.kl; acc.total += l.total; ++n_acc;
+      ++rep.vae_iterations;
+      if ((it + 1) % log_every == 0 || it + 1 == cfg.vae_iterations) {
+        rep.vae_final = {acc.recon / n_acc, acc.kl / n_acc, acc.total / n_acc};
+        say("vae " + std::to_string(it + 1) + ": recon " + std::to_string(rep.vae_final.recon) + " kl " +
+            std::to_string(rep.vae_final.kl));
+        acc = {};
+        n_acc = 0;
+      }
+    }
+    if (n_acc > 0) rep.vae_final = {acc.recon / n_acc, acc.kl / n_acc, acc.total / n_acc};
+    rep.vae_seconds = std::chrono::duration<double>(clock::now() - t0).count();
+  }
+
+  // Stage 2: latent diffusion on the frozen VAE's posteriors.
+  {
+    const auto [mu, logvar] = vae.encode(hn_all, fn_all);
+    const MatrixXf sigma = (0.5f * logvar.array()).exp().matrix();
+    const double var = (mu.array().square().mean() + sigma.array().square().mean());
+    g.set_latent_scale(static_cast<float>(std::sqrt(std::max(var, 1e-8))));
+    const float inv_scale = 1.0f / g.latent_scale();
+    // Text features of every description, per clip.
+    std::vector<std::vector<VectorXf>> clip_feats(data.clip_texts.size());
+    for (std::size_t c = 0; c < data.clip_texts.size(); ++c)
+      for (const auto& t : data.clip_texts[c]) clip_feats[c].push_back(g.text_encoder().features(t));
+    nn::Adam<float> adam(ac);
+    const auto t0 = clock::now();
+    double acc = 0.0;
+    Index n_acc = 0;
+    const Index K = g.denoiser().config().text_features, L = vae.latent_dim();
+    for (Index it = 0; it < cfg.diffusion_iterations; ++it) {
+      const double el = std::chrono::duration<double>(clock::now() - t0).count();
+      if (stage_budget > 0 && el > stage_budget) break;
+      const auto idx = sample_indices(data.size(), cfg.batch, rng);
+      MatrixXf x0(L, cfg.batch), tf = MatrixXf::Zero(K, cfg.batch);
+      for (Index j = 0; j < cfg.batch; ++j) {
+        const Index n = idx[static_cast<std::size_t>(j)];
+        for (Index i = 0; i < L; ++i) x0(i, j) = (mu(i, n) + sigma(i, n) * static_cast<float>(rng.normal())) * inv_scale;
+        const auto& feats = clip_feats[static_cast<std::size_t>(data.clip[static_cast<std::size_t>(n)])];
+        if (!feats.empty()) tf.col(j) = feats[rng.uniform_int(feats.size())];
+      }
+      acc += g.denoiser().train_step(g.schedule(), x0, tf, gather_columns(hn_all, idx), adam, rng);
+      ++n_acc;
+      ++rep.diffusion_iterations;
+      if ((it + 1) % log_every == 0 || it + 1 == cfg.diffusion_iterations) {
+        rep.diffusion_final = acc / n_acc;
+        say("diffusion " + std::to_string(it + 1) + ": x0 loss " + std::to_string(rep.diffusion_final));
+        acc = 0.0;
+        n_acc = 0;
+      }
+    }
+    if (n_acc > 0) rep.diffusion_final = acc / n_acc;
+    rep.diffusion_seconds = std::chrono::duration<double>(clock::now() - t0).count();
+  }
+  return rep;
+}
+
+}  // namespace maskadapt::tracking
