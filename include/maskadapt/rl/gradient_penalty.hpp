@@ -1,0 +1,115 @@
+#pragma once
+/// \file gradient_penalty.hpp
+/// Gradient penalty on a scalar-output MLP, with its exact parameter gradient (double backprop).
+///
+/// For a network d = D(x) with scalar output (identity output activation) and a batch x
+/// (inputs × B):
+///
+///     P = (w / B) · Σ_j ‖S ∂d_j/∂x_j‖²
+///
+/// where S selects the rows `[0, penalised_rows)` (e.g. the motion features, not the discrete
+/// conditioning bits). The AMP discriminator applies it on real samples with w = 5.
+///
+/// Forward graph (layer l = 0 … L−1):  z_l = W_l a_{l−1} + b_l,  a_l = f_l(z_l),  a_{−1} = x.
+/// Input gradient (the "backward" graph, with g_{L−1} = 1):
+///     q_l = W_lᵀ g_l,   g_{l−1} = f'_{l−1}(z_{l−1}) ⊙ q_l,   ∂d/∂x = q_0.
+/// Reverse mode through that graph, from q̄_0 = (2w/B)·S q_0:
+///     ∂P/∂W_l += g_l q̄_lᵀ,   ḡ_l = W_l q̄_l,
+///     z̄_l = f''_l(z_l) ⊙ q_{l+1} ⊙ ḡ_l,   q̄_{l+1} = f'_l(z_l) ⊙ ḡ_l          (l < L−1)
+/// and then through the forward graph with the z̄_l injected at every layer:
+///     δ_l = z̄_l + f'_l(z_l) ⊙ W_{l+1}ᵀ δ_{l+1},   ∂P/∂W_l += δ_l a_{l−1}ᵀ,   ∂P/∂b_l += Σ_j δ_l.
+#include <maskadapt/core/error.hpp>
+#include <maskadapt/core/types.hpp>
+#include <maskadapt/nn/activation.hpp>
+#include <maskadapt/nn/mlp.hpp>
+
+#include <type_traits>
+#include <vector>
+
+namespace maskadapt::rl {
+
+/// Scratch for gradient_penalty (reused between calls).
+template <class T>
+struct GradientPenaltyWorkspace {
+  std::vector<MatrixX<T>> g, q, qbar, zbar;  // per layer
+  MatrixX<T> fp, delta, tmp;
+};
+
+/// Computes P for the forward pass recorded in `cache` (filled by net.forward_train on x) and
+/// ADDS ∂P/∂θ into `grad` (num_params, layout of net.params()). Returns P.
+/// Also returns, via `input_grad_sq` if non-null, the mean ‖S ∂d/∂x‖² (for logging).
+template <class T>
+double gradient_penalty(const nn::Mlp<T>& net, const nn::TrainCache<T>& cache, Index penalised_rows, double weight,
+                        std::type_identity_t<Eigen::Ref<VectorX<T>>> grad, GradientPenaltyWorkspace<T>& w,
+                        double* input_grad_sq = nullptr) {
+  const auto& spec = net.spec();
+  require(net.outputs() == 1 && spec.output_activation == nn::Activation::Identity,
+          "the gradient penalty needs a scalar logit with identity output activation", {{}, {}, "gradient_penalty"});
+  require(static_cast<Index>(cache.pre.size()) == net.num_layers() && cache.input.rows() == net.inputs(),
+          "cache was not filled by forward_train of this network", {{}, {}, "gradient_penalty.cache"});
+  require(penalised_rows >= 0 && penalised_rows <= net.inputs(), "penalised_rows out of range",
+          {{}, {}, "gradient_penalty.penalised_rows"});
+  require(grad.size() == net.num_params(), "grad has the wrong size", {{}, {}, "gradient_penalty.grad"});
+  const Index L = net.num_layers(), B = cache.batch();
+  const auto act = [&](Index l) { return spec.layer_activation(l); };
+  const auto Lz = static_cast<std::size_t>(L);
+  w.g.resize(Lz);
+  w.q.resize(Lz);
+  w.qbar.resize(Lz);
+  w.zbar.resize(Lz);
+
+  // Input gradient: g_{L−1} = 1; q_l = W_lᵀ g_l; g_{l−1} = f'(z_{l−1}) ⊙ q_l.
+  w.g[Lz - 1].setOnes(1, B);
+  for (Index l = L - 1; l >= 0; --l) {
+    const auto i = static_cast<std::size_t>(l);
+    w.q[i].noalias() = net.weight(l).transpose() * w.g[i];
+    if (l > 0) {
+      w.fp.resize(cache.pre[i - 1].rows(), B);
+      nn::activation_derivative<T>(act(l - 1), cache.pre[i - 1], w.fp);
+      w.g[i - 1] = w.fp.cwiseProduct(w.q[i]);
+    }
+  }
+  const auto u = w.q[0].topRows(penalised_rows);  // S ∂d/∂x (penalised_rows × B)
+  const double sq = static_cast<double>(u.squaredNorm());
+  if (input_grad_sq) *input_grad_sq = sq / static_cast<double>(B);
+  const double P = weight * sq / static_cast<double>(B);
+  if (weight == 0) return 0.0;
+
+  // Reverse through the input-gradient graph.
+  w.qbar[0].setZero(net.inputs(), B);
+  w.qbar[0].topRows(penalised_rows) = static_cast<T>(2.0 * weight / static_cast<double>(B)) * u;
+  for (Index l = 0; l < L; ++l) {
+    const auto i = static_cast<std::size_t>(l);
+    Eigen::Map<MatrixX<T>> gW(grad.data() + net.weight_offset(l), spec.layer_outputs(l), spec.layer_inputs(l));
+    gW.noalias() += w.g[i] * w.qbar[i].transpose();
+    w.tmp.noalias() = net.weight(l) * w.qbar[i];  // ḡ_l (out_l × B)
+    if (l < L - 1) {
+      w.fp.resize(cache.pre[i].rows(), B);
+      nn::activation_second_derivative<T>(act(l), cache.pre[i], w.fp);
+      w.zbar[i] = w.fp.cwiseProduct(w.q[i + 1]).cwiseProduct(w.tmp);
+      nn::activation_derivative<T>(act(l), cache.pre[i], w.fp);
+      w.qbar[i + 1] = w.fp.cwiseProduct(w.tmp);
+    } else {
+      w.zbar[i].setZero(spec.layer_outputs(l), B);  // f'' of the identity output is 0
+    }
+  }
+  // Reverse through the forward graph with z̄ injected at every layer.
+  for (Index l = L - 1; l >= 0; --l) {
+    const auto i = static_cast<std::size_t>(l);
+    if (l == L - 1) {
+      w.delta = w.zbar[i];
+    } else {
+      w.tmp.noalias() = net.weight(l + 1).transpose() * w.delta;
+      w.fp.resize(cache.pre[i].rows(), B);
+      nn::activation_derivative<T>(act(l), cache.pre[i], w.fp);
+      w.delta = w.zbar[i] + w.fp.cwiseProduct(w.tmp);
+    }
+    Eigen::Map<MatrixX<T>> gW(grad.data() + net.weight_offset(l), spec.layer_outputs(l), spec.layer_inputs(l));
+    Eigen::Map<VectorX<T>> gb(grad.data() + net.bias_offset(l), spec.layer_outputs(l));
+    gW.noalias() += w.delta * cache.layer_input(l).transpose();
+    gb += w.delta.rowwise().sum();
+  }
+  return P;
+}
+
+}  // namespace maskadapt::rl
