@@ -181,10 +181,10 @@ class Mlp {
   void forward(const Eigen::Ref<const MatrixX<T>>& x, Eigen::Ref<MatrixX<T>> y, InferenceWorkspace<T>& ws) const {
     const Index batch = x.cols();
     check_input(x, "forward");
-    require(y.rows() == outputs() && y.cols() == batch,
-            "output must be " + std::to_string(outputs()) + "x" + std::to_string(batch) + ", got " +
-                std::to_string(y.rows()) + "x" + std::to_string(y.cols()),
-            {{}, std::nullopt, "Mlp::forward.y"});
+    if (y.rows() != outputs() || y.cols() != batch)  // (messages are built only on failure: no allocation)
+      throw Error("output must be " + std::to_string(outputs()) + "x" + std::to_string(batch) + ", got " +
+                      std::to_string(y.rows()) + "x" + std::to_string(y.cols()),
+                  {{}, std::nullopt, "Mlp::forward.y"});
     const Index L = num_layers();
     if (L > 1) ws.reserve(spec_, batch);
     MatrixX<T>* bufs[2] = {&ws.a, &ws.b};
@@ -246,15 +246,15 @@ class Mlp {
   void backward(TrainCache<T>& cache, const Eigen::Ref<const MatrixX<T>>& dy, Eigen::Ref<VectorX<T>> grad,
                 MatrixX<T>* dx = nullptr) const {
     const Index batch = cache.batch(), L = num_layers();
-    require(static_cast<Index>(cache.post.size()) == L && cache.input.rows() == inputs(),
-            "cache was not filled by forward_train of this network", {{}, std::nullopt, "Mlp::backward.cache"});
-    require(dy.rows() == outputs() && dy.cols() == batch,
-            "dy must be " + std::to_string(outputs()) + "x" + std::to_string(batch) + ", got " +
-                std::to_string(dy.rows()) + "x" + std::to_string(dy.cols()),
-            {{}, std::nullopt, "Mlp::backward.dy"});
-    require(grad.size() == num_params(),
-            "grad must have " + std::to_string(num_params()) + " entries, got " + std::to_string(grad.size()),
-            {{}, std::nullopt, "Mlp::backward.grad"});
+    if (static_cast<Index>(cache.post.size()) != L || cache.input.rows() != inputs())
+      throw Error("cache was not filled by forward_train of this network", {{}, std::nullopt, "Mlp::backward.cache"});
+    if (dy.rows() != outputs() || dy.cols() != batch)
+      throw Error("dy must be " + std::to_string(outputs()) + "x" + std::to_string(batch) + ", got " +
+                      std::to_string(dy.rows()) + "x" + std::to_string(dy.cols()),
+                  {{}, std::nullopt, "Mlp::backward.dy"});
+    if (grad.size() != num_params())
+      throw Error("grad must have " + std::to_string(num_params()) + " entries, got " + std::to_string(grad.size()),
+                  {{}, std::nullopt, "Mlp::backward.grad"});
     Index width = std::max(inputs(), outputs());
     width = std::max(width, spec_.max_hidden());
     if (cache.delta.rows() < width || cache.delta.cols() != batch) cache.delta.resize(width, batch);
@@ -289,11 +289,11 @@ class Mlp {
 
  private:
   void check_input(const Eigen::Ref<const MatrixX<T>>& x, const char* where) const {
-    require(num_layers() > 0 && num_params() > 0, "network is empty (default-constructed)",
-            {{}, std::nullopt, std::string("Mlp::") + where});
-    require(x.rows() == inputs(),
-            "input must have " + std::to_string(inputs()) + " rows, got " + std::to_string(x.rows()),
-            {{}, std::nullopt, std::string("Mlp::") + where + ".x"});
+    if (num_params() == 0)
+      throw Error("network is empty (default-constructed)", {{}, std::nullopt, std::string("Mlp::") + where});
+    if (x.rows() != inputs())
+      throw Error("input must have " + std::to_string(inputs()) + " rows, got " + std::to_string(x.rows()),
+                  {{}, std::nullopt, std::string("Mlp::") + where + ".x"});
   }
 
   /// z = f(z + b) column by column (one pass over memory).
