@@ -127,8 +127,11 @@ inline Vec3 humanoid_joint_position(int body) {
   }
 }
 
+/// Rounds to whole micrometres, so that derived figures print as short decimals in the MJCF.
+inline Vec3 round_um(const Vec3& v) { return (v * 1e6).array().round().matrix() / 1e6; }
+
 inline Geom capsule(Vec3 from, Vec3 to, double radius, double mass) {
-  return {Geom::Type::Capsule, from, to, radius, mass};
+  return {Geom::Type::Capsule, round_um(from), round_um(to), radius, mass};
 }
 inline Geom box(Vec3 centre, Vec3 half, double mass) { return {Geom::Type::Box, centre, half, 0.0, mass}; }
 inline Geom sphere(Vec3 centre, double radius, double mass) {
@@ -143,7 +146,7 @@ inline HumanoidDescription make_humanoid_description() {
   s.parents = {-1, 0, 0, 0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 9, 9, 12, 13, 14, 16, 17, 18, 19};
   s.offsets.setZero(3, nb);
   for (int i = 1; i < nb; ++i)
-    s.offsets.col(i) = humanoid_joint_position(i) - humanoid_joint_position(s.parents[i]);
+    s.offsets.col(i) = round_um(humanoid_joint_position(i) - humanoid_joint_position(s.parents[i]));
 
   using P = BodyPart;
   s.parts = {P::Trunk,   P::LeftLeg,  P::RightLeg, P::Trunk,   P::LeftLeg, P::RightLeg, P::Trunk,   P::LeftLeg,

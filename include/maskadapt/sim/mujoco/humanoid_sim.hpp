@@ -9,7 +9,7 @@
 /// the library's conventions:
 ///  - MuJoCo quaternions (w, x, y, z) → Eigen (`Quat`);
 ///  - free-joint angular velocity qvel[3:6] is body-local → world on reset;
-///  - body velocities from `mj_objectVelocity` (world orientation, at the body origin).
+///  - body velocities from `mj_objectVelocity(mjOBJ_XBODY)` (world orientation, at the body origin).
 /// Contact flags come from the last substep's contact list (floor vs body geoms).
 ///
 /// Failure handling: an env whose state becomes non-finite or explodes (|qvel| > 1e4, or a body
@@ -313,7 +313,8 @@ class MujocoHumanoidSim {
       const auto c = static_cast<Index>(i);
       b.pos.col(c) = Vec3(d->xpos[3 * id], d->xpos[3 * id + 1], d->xpos[3 * id + 2]);
       b.rot[i] = Quat(d->xquat[4 * id], d->xquat[4 * id + 1], d->xquat[4 * id + 2], d->xquat[4 * id + 3]);
-      mj_objectVelocity(m, d, mjOBJ_BODY, id, vel, 0);  // [angular; linear], world orientation
+      // mjOBJ_XBODY: at the body frame origin (mjOBJ_BODY would give the velocity at the body's CoM).
+      mj_objectVelocity(m, d, mjOBJ_XBODY, id, vel, 0);  // [angular; linear], world orientation
       b.ang_vel.col(c) = Vec3(vel[0], vel[1], vel[2]);
       b.lin_vel.col(c) = Vec3(vel[3], vel[4], vel[5]);
     }

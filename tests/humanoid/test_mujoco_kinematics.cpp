@@ -1,0 +1,91 @@
+// One source of truth: the library's forward kinematics equals MuJoCo's on the generated model.
+#include <maskadapt/core/rng.hpp>
+#include <maskadapt/humanoid/description.hpp>
+#include <maskadapt/sim/mujoco/humanoid_sim.hpp>
+
+#include <gtest/gtest.h>
+
+using namespace maskadapt;
+
+namespace {
+KinematicState random_state(Rng& r, bool with_velocity) {
+  const Skeleton& s = humanoid_skeleton();
+  KinematicState st = KinematicState::zero(s);
+  st.root_pos = Vec3(r.uniform(-2, 2), r.uniform(-2, 2), r.uniform(0.8, 1.5));
+  st.root_rot = Quat(r.normal(), r.normal(), r.normal(), r.normal()).normalized();
+  for (int i = 1; i < s.num_bodies(); ++i)
+    for (int k = 0; k < 3; ++k) st.q[Skeleton::dof_offset(i) + k] = r.uniform(s.joint_lower(k, i), s.joint_upper(k, i));
+  if (with_velocity) {
+    for (Index k = 0; k < st.qd.size(); ++k) st.qd[k] = r.normal(0, 2);
+    st.root_lin_vel = Vec3(r.normal(), r.normal(), r.normal());
+    st.root_ang_vel = Vec3(r.normal(), r.normal(), r.normal());
+  }
+  return st;
+}
+}  // namespace
+
+TEST(MujocoKinematics, BodyPosesMatchLibraryForwardKinematics) {
+  MujocoHumanoidSim sim(1);
+  Rng r(21);
+  double worst_pos = 0, worst_rot = 0;
+  for (int trial = 0; trial < 50; ++trial) {
+    const KinematicState st = random_state(r, false);
+    sim.reset(0, st);
+    const BodyStates lib = forward_kinematics(sim.skeleton(), st);
+    const BodyStates& mj = sim.body_states(0);
+    for (int i = 0; i < 22; ++i) {
+      worst_pos = std::max(worst_pos, (lib.pos.col(i) - mj.pos.col(i)).norm());
+      worst_rot = std::max(worst_rot, lib.rot[i].angularDistance(mj.rot[i]));
+    }
+  }
+  EXPECT_LT(worst_pos, 1e-5) << "metres";
+  EXPECT_LT(worst_rot, 1e-5) << "radians";
+}
+
+TEST(MujocoKinematics, BodyVelocitiesMatchLibrary) {
+  // Exercises the free joint's body-local angular velocity conversion and mj_objectVelocity.
+  MujocoHumanoidSim sim(1);
+  Rng r(22);
+  for (int trial = 0; trial < 20; ++trial) {
+    const KinematicState st = random_state(r, true);
+    sim.reset(0, st);
+    const BodyStates lib = forward_kinematics(sim.skeleton(), st);
+    const BodyStates& mj = sim.body_states(0);
+    for (int i = 0; i < 22; ++i) {
+      ASSERT_LT((lib.lin_vel.col(i) - mj.lin_vel.col(i)).norm(), 1e-6) << sim.skeleton().names[i];
+      ASSERT_LT((lib.ang_vel.col(i) - mj.ang_vel.col(i)).norm(), 1e-6) << sim.skeleton().names[i];
+    }
+  }
+}
+
+TEST(MujocoKinematics, MassAndJointRangesMatchTheDescription) {
+  MujocoHumanoidSim sim(1);
+  const mjModel* m = sim.model();
+  double mass = 0;
+  for (int b = 0; b < m->nbody; ++b) mass += m->body_mass[b];
+  EXPECT_NEAR(mass, humanoid_description().total_mass(), 1e-9);
+  const int j = mj_name2id(m, mjOBJ_JOINT, "L_Knee_y");
+  ASSERT_GE(j, 0);
+  EXPECT_DOUBLE_EQ(m->jnt_range[2 * j + 1], humanoid_skeleton().joint_upper(1, hb::LKnee));
+  EXPECT_DOUBLE_EQ(m->opt.timestep, 1.0 / 120.0);
+  EXPECT_EQ(m->opt.integrator, mjINT_EULER);
+}
+
+TEST(MujocoKinematics, CommittedAssetLoads) {
+  const std::string path = std::string(MASKADAPT_SOURCE_DIR) + "/assets/humanoid.xml";
+  auto m = mujoco_detail::load_model_from_file(path);
+  EXPECT_EQ(m->nu, 63);
+  EXPECT_EQ(m->nbody, 23);
+}
+
+TEST(MujocoKinematics, LoadErrorsBecomeLibraryErrors) {
+  try {
+    mujoco_detail::load_model_from_string("<mujoco><worldbody><body><geom type='nonsense'/></body></worldbody></mujoco>",
+                                          "broken.xml");
+    FAIL() << "broken MJCF accepted";
+  } catch (const Error& e) {
+    EXPECT_EQ(e.context().file, "broken.xml");
+    EXPECT_NE(std::string(e.what()).find("MuJoCo could not load"), std::string::npos) << e.what();
+  }
+  EXPECT_THROW(mujoco_detail::load_model_from_file("/nonexistent/humanoid.xml"), Error);
+}

@@ -1,0 +1,2 @@
+#define BODY_STATES_BY_VALUE
+#include "sim_base.hpp"

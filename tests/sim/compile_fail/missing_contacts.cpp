@@ -1,0 +1,2 @@
+#define MISSING_CONTACTS
+#include "sim_base.hpp"

@@ -1,0 +1,151 @@
+#include <maskadapt/core/rng.hpp>
+#include <maskadapt/humanoid/observation.hpp>
+#include <maskadapt/sim/mujoco/humanoid_sim.hpp>
+#include <maskadapt/sim/termination.hpp>
+
+#include <gtest/gtest.h>
+
+#include <cstdio>
+#include <filesystem>
+
+using namespace maskadapt;
+
+namespace {
+/// Uniform random targets inside the joint ranges, (63 × num_envs).
+MatrixXf random_targets(const Skeleton& s, Index num_envs, Rng& r) {
+  MatrixXf t(s.num_dofs(), num_envs);
+  for (Index e = 0; e < num_envs; ++e)
+    for (int i = 1; i < s.num_bodies(); ++i)
+      for (int k = 0; k < 3; ++k)
+        t(Skeleton::dof_offset(i) + k, e) = static_cast<float>(r.uniform(s.joint_lower(k, i), s.joint_upper(k, i)));
+  return t;
+}
+bool all_finite(const BodyStates& b) {
+  return b.pos.allFinite() && b.lin_vel.allFinite() && b.ang_vel.allFinite();
+}
+}  // namespace
+
+TEST(MujocoHumanoidSim, SatisfiesTheConcept) {
+  static_assert(Simulator<MujocoHumanoidSim>);
+  MujocoHumanoidSim sim(3);
+  EXPECT_EQ(sim.num_envs(), 3u);
+  EXPECT_EQ(sim.skeleton().num_dofs(), 63);
+  EXPECT_DOUBLE_EQ(sim.control_dt(), 1.0 / 30.0);
+  // Starts standing: soles on the floor, contacts on feet/toes only.
+  const FallCriteria c = FallCriteria::for_skeleton(sim.skeleton());
+  EXPECT_FALSE(has_fallen(c, sim.body_states(2), sim.contacts(2)));
+  EXPECT_TRUE(sim.contacts(0)[hb::LAnkle] && sim.contacts(0)[hb::RToe]);
+  EXPECT_THROW(sim.body_states(3), Error);
+}
+
+TEST(MujocoHumanoidSim, StandsForTenSecondsUnderPd) {
+  MujocoHumanoidSim sim(1);
+  const FallCriteria c = FallCriteria::for_skeleton(sim.skeleton());
+  const MatrixXf targets = MatrixXf::Zero(63, 1);  // hold the zero pose
+  const int steps = static_cast<int>(10.0 / sim.control_dt());
+  for (int k = 0; k < steps; ++k) {
+    sim.step(targets);
+    ASSERT_FALSE(has_fallen(c, sim.body_states(0), sim.contacts(0))) << "fell at t = " << (k + 1) * sim.control_dt();
+  }
+  const BodyStates& b = sim.body_states(0);
+  EXPECT_GT(b.pos(2, hb::Head), 1.5);                                   // still upright
+  EXPECT_LT(b.pos.col(0).head<2>().norm(), 0.05);                       // no drifting
+  EXPECT_LT(b.lin_vel.cwiseAbs().maxCoeff(), 0.01);                     // at rest
+  EXPECT_EQ(sim.step_stats().physics_resets, 0u);
+}
+
+TEST(MujocoHumanoidSim, TenThousandRandomStepsStayFinite) {
+  MujocoHumanoidSim sim(2, 2);
+  Rng r(77);
+  for (int k = 0; k < 5000; ++k) {  // 2 envs × 5,000 steps = 10,000 env control steps
+    sim.step(random_targets(sim.skeleton(), 2, r));
+    ASSERT_TRUE(all_finite(sim.body_states(0)) && all_finite(sim.body_states(1))) << "step " << k;
+  }
+  EXPECT_EQ(sim.step_stats().physics_resets, 0u);
+  EXPECT_EQ(sim.step_stats().control_steps, 5000u);
+  EXPECT_FALSE(std::filesystem::exists("MUJOCO_LOG.TXT"));
+}
+
+TEST(MujocoHumanoidSim, RejectsNonFiniteAndMisshapenTargets) {
+  MujocoHumanoidSim sim(2);
+  MatrixXf t = MatrixXf::Zero(63, 2);
+  t(17, 1) = std::numeric_limits<float>::quiet_NaN();
+  try {
+    sim.step(t);
+    FAIL() << "NaN target accepted";
+  } catch (const Error& e) {
+    EXPECT_EQ(e.context().field, "targets");
+    EXPECT_NE(std::string(e.what()).find("row 17, col 1"), std::string::npos) << e.what();
+  }
+  EXPECT_EQ(sim.step_stats().control_steps, 0u);  // nothing was stepped
+  t(17, 1) = std::numeric_limits<float>::infinity();
+  EXPECT_THROW(sim.step(t), Error);
+  EXPECT_THROW(sim.step(MatrixXf::Zero(63, 3)), Error);
+  EXPECT_THROW(sim.step(MatrixXd::Zero(62, 2)), Error);
+  KinematicState bad = humanoid_standing_pose();
+  bad.q[5] = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_THROW(sim.reset(0, bad), Error);
+}
+
+TEST(MujocoHumanoidSim, ExplodedEnvIsResetAndCountedOthersUnaffected) {
+  MujocoHumanoidSim sim(3), reference(3);
+  Rng r(5);
+  const MatrixXf t = random_targets(sim.skeleton(), 3, r);
+  for (int k = 0; k < 5; ++k) sim.step(t), reference.step(t);
+  // Corrupt env 1: NaN velocity (MuJoCo resets data itself) and then an explosion.
+  sim.data(1)->qvel[10] = std::numeric_limits<double>::quiet_NaN();
+  sim.step(t);
+  reference.step(t);
+  EXPECT_EQ(sim.step_stats().physics_reset, (std::vector<std::uint8_t>{0, 1, 0}));
+  EXPECT_EQ(sim.step_stats().physics_resets, 1u);
+  EXPECT_TRUE(all_finite(sim.body_states(1)));
+  // Reset to its last reset pose (the standing pose), exactly.
+  const BodyStates standing = forward_kinematics(sim.skeleton(), humanoid_standing_pose());
+  EXPECT_LT((sim.body_states(1).pos - standing.pos).cwiseAbs().maxCoeff(), 1e-9);
+  sim.data(2)->qvel[0] = 1e6;  // a flung root: finite but exploded
+  sim.step(t);
+  reference.step(t);
+  EXPECT_EQ(sim.step_stats().physics_reset, (std::vector<std::uint8_t>{0, 0, 1}));
+  EXPECT_EQ(sim.step_stats().physics_resets, 2u);
+  // Env 0 never noticed: bit-identical to an untouched simulator.
+  EXPECT_EQ(sim.body_states(0).pos, reference.body_states(0).pos);
+  EXPECT_EQ(sim.body_states(0).lin_vel, reference.body_states(0).lin_vel);
+  sim.step(t);
+  EXPECT_EQ(sim.step_stats().physics_reset, (std::vector<std::uint8_t>{0, 0, 0}));
+}
+
+TEST(MujocoHumanoidSim, BitIdenticalForAnyThreadCount) {
+  Rng r(8);
+  std::vector<MatrixXf> targets;
+  for (int k = 0; k < 30; ++k) targets.push_back(random_targets(humanoid_skeleton(), 5, r));
+  auto run = [&](std::size_t threads) {
+    MujocoHumanoidSim sim(5, threads);
+    KinematicState pose = humanoid_standing_pose();
+    for (std::size_t e = 0; e < 5; ++e) {
+      pose.root_lin_vel = Vec3(0.1 * static_cast<double>(e), 0, 0);
+      sim.reset(e, pose);
+    }
+    for (const auto& t : targets) sim.step(t);
+    MatrixXf obs(328, 5);
+    for (Index e = 0; e < 5; ++e) compute_observation(sim.skeleton(), sim.body_states(static_cast<std::size_t>(e)), obs.col(e));
+    return obs;
+  };
+  const MatrixXf one = run(1), two = run(2), three = run(3);
+  EXPECT_TRUE((one.array() == two.array()).all());
+  EXPECT_TRUE((one.array() == three.array()).all());
+  EXPECT_FALSE((one.col(0).array() == one.col(4).array()).all());  // envs really differ
+}
+
+TEST(MujocoHumanoidSim, ResetPlacesTheRequestedState) {
+  MujocoHumanoidSim sim(1);
+  KinematicState pose = humanoid_standing_pose();
+  pose.root_pos = Vec3(3, -2, 1.2);
+  pose.root_rot = Quat(Eigen::AngleAxisd(1.0, Vec3::UnitZ()));
+  pose.q[Skeleton::dof_offset(hb::LElbow) + 2] = -1.0;
+  pose.root_ang_vel = Vec3(0, 0, 2.0);
+  sim.reset(0, pose);
+  EXPECT_NEAR(sim.joint_angles(0)[Skeleton::dof_offset(hb::LElbow) + 2], -1.0, 1e-12);
+  EXPECT_LT((sim.body_states(0).pos.col(0) - pose.root_pos).norm(), 1e-12);
+  EXPECT_LT((sim.body_states(0).ang_vel.col(0) - Vec3(0, 0, 2.0)).norm(), 1e-9);
+  EXPECT_TRUE(std::all_of(sim.contacts(0).begin(), sim.contacts(0).end(), [](auto c) { return c == 0; }));  // airborne
+}
