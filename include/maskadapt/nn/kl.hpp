@@ -68,13 +68,17 @@ void kl_kernel(const Eigen::Ref<const MatrixX<T>>& mean_p, const Eigen::Ref<cons
   const bool any_grad = g.mean_p || g.log_std_p || g.mean_q || g.log_std_q;
   const bool p_shared = log_std_p.cols() == 1, q_shared = log_std_q.cols() == 1;
   const Index d = mean_p.rows();
+  // With (d × 1) log-stds the exponentials depend on i only: compute them once.
+  VectorX<T> inv_vq_shared, r_shared;
+  if (q_shared) inv_vq_shared = (T(-2) * log_std_q.col(0).array()).exp().matrix();
+  if (p_shared && q_shared) r_shared = (T(2) * (log_std_p.col(0) - log_std_q.col(0)).array()).exp().matrix();
   for (Index j = 0; j < mean_p.cols(); ++j) {
     const T w = any_grad ? dkl(j) : T(0);
     T acc = 0;
     for (Index i = 0; i < d; ++i) {
       const T lsp = ls_at(log_std_p, i, j), lsq = ls_at(log_std_q, i, j);
-      const T inv_vq = std::exp(T(-2) * lsq);
-      const T r = std::exp(T(2) * (lsp - lsq));  // σp²/σq²
+      const T inv_vq = q_shared ? inv_vq_shared[i] : std::exp(T(-2) * lsq);
+      const T r = (p_shared && q_shared) ? r_shared[i] : std::exp(T(2) * (lsp - lsq));  // σp²/σq²
       const T diff = mean_p(i, j) - mean_q(i, j);
       const T t = diff * diff * inv_vq;
       acc += (lsq - lsp) + T(0.5) * (r + t) - T(0.5);

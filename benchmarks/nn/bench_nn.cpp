@@ -1,0 +1,206 @@
+// Neural-network kernel benchmarks (docs/benchmarks.md, section nn).
+// Every figure is meant to be read as a ratio against a peer in the same run: the FMA peak, the
+// memory-streaming floor, and (with -DMASKADAPT_WITH_TORCH=ON) LibTorch doing the same work.
+//   ./maskadapt_bench_nn --benchmark_repetitions=3 --benchmark_report_aggregates_only=true
+#include <benchmark/benchmark.h>
+
+#include <immintrin.h>
+
+#include <vector>
+
+#include "maskadapt/nn/kl.hpp"
+#include "maskadapt/nn/mlp.hpp"
+
+#ifdef MASKADAPT_WITH_TORCH
+#include <torch/torch.h>
+#endif
+
+using namespace maskadapt;
+using namespace maskadapt::nn;
+
+namespace {
+
+MlpSpec big_spec() { return MlpSpec{330, {1024, 1024, 512}, 63}; }
+MlpSpec small_spec() { return MlpSpec{330, {256, 256}, 63}; }
+
+/// Multiply-adds per sample of a forward pass.
+double macs_per_sample(const MlpSpec& s) {
+  double m = 0;
+  for (Index l = 0; l < s.num_layers(); ++l) m += double(s.layer_inputs(l)) * double(s.layer_outputs(l));
+  return m;
+}
+
+Eigen::MatrixXf random_input(Index rows, Index cols) {
+  Rng rng(1);
+  Eigen::MatrixXf x(rows, cols);
+  for (Index i = 0; i < x.size(); ++i) x.data()[i] = static_cast<float>(rng.normal());
+  return x;
+}
+
+// ---- machine peers ------------------------------------------------------------------------------
+
+/// FMA throughput: 12 independent 256-bit FMA chains (enough to cover latency × 2 pipes).
+void BM_FmaPeak(benchmark::State& state) {
+  const long iters = 1 << 20;
+  for (auto _ : state) {
+    __m256 acc[12];
+    for (int k = 0; k < 12; ++k) acc[k] = _mm256_set1_ps(0.001f * k);
+    const __m256 a = _mm256_set1_ps(0.999f), b = _mm256_set1_ps(0.0001f);
+    for (long i = 0; i < iters; ++i) {
+#pragma GCC unroll 12
+      for (int k = 0; k < 12; ++k) acc[k] = _mm256_fmadd_ps(acc[k], a, b);
+    }
+    __m256 s = acc[0];
+    for (int k = 1; k < 12; ++k) s = _mm256_add_ps(s, acc[k]);
+    benchmark::DoNotOptimize(s);
+  }
+  state.counters["FLOPS"] = benchmark::Counter(double(iters) * 12 * 8 * 2 * double(state.iterations()),
+                                               benchmark::Counter::kIsRate);
+}
+BENCHMARK(BM_FmaPeak)->Threads(1)->Threads(2)->UseRealTime();
+
+/// Streaming floor for batch-1 inference: read as many bytes as the network's parameters.
+void BM_WeightStreamFloor(benchmark::State& state) {
+  const MlpSpec spec = state.range(0) == 0 ? big_spec() : small_spec();
+  Eigen::VectorXf w = Eigen::VectorXf::Ones(spec.num_params());
+  for (auto _ : state) {
+    float s = w.sum();
+    benchmark::DoNotOptimize(s);
+  }
+  state.counters["bytes"] = double(w.size()) * 4;
+  state.counters["GB/s"] = benchmark::Counter(double(w.size()) * 4 * double(state.iterations()), benchmark::Counter::kIsRate);
+}
+BENCHMARK(BM_WeightStreamFloor)->Arg(0)->Arg(1)->ArgNames({"small"})->Unit(benchmark::kMicrosecond);
+
+// ---- maskadapt ----------------------------------------------------------------------------------
+
+void BM_MlpForward(benchmark::State& state) {
+  const Index batch = state.range(0);
+  const MlpSpec spec = state.range(1) == 0 ? big_spec() : small_spec();
+  Rng rng(1);
+  Mlp<float> net(spec, rng);
+  const Eigen::MatrixXf x = random_input(spec.inputs, batch);
+  Eigen::MatrixXf y(spec.outputs, batch);
+  InferenceWorkspace<float> ws;
+  net.forward(x, y, ws);
+  for (auto _ : state) {
+    net.forward(x, y, ws);
+    benchmark::DoNotOptimize(y.data());
+  }
+  state.counters["FLOPS"] = benchmark::Counter(2 * macs_per_sample(spec) * double(batch) * double(state.iterations()),
+                                               benchmark::Counter::kIsRate);
+}
+BENCHMARK(BM_MlpForward)
+    ->Args({4096, 0})->Args({256, 0})->Args({1, 0})->Args({1, 1})
+    ->ArgNames({"batch", "small"})->Unit(benchmark::kMicrosecond)->UseRealTime();
+
+void BM_MlpForwardBackward(benchmark::State& state) {
+  const Index batch = state.range(0);
+  const MlpSpec spec = big_spec();
+  Rng rng(1);
+  Mlp<float> net(spec, rng);
+  const Eigen::MatrixXf x = random_input(spec.inputs, batch);
+  const Eigen::MatrixXf dy = random_input(spec.outputs, batch);
+  TrainCache<float> cache;
+  for (auto _ : state) {
+    net.zero_grad();
+    net.forward_train(x, cache);
+    net.backward(cache, dy, net.grads());  // no input gradient (as for a policy update)
+    benchmark::DoNotOptimize(net.grads().data());
+  }
+  // forward 1×, backward 2× (weight grad + input grad, minus the first layer's input grad).
+  const double macs = 3 * macs_per_sample(spec) - double(spec.inputs) * double(spec.hidden[0]);
+  state.counters["FLOPS"] =
+      benchmark::Counter(2 * macs * double(batch) * double(state.iterations()), benchmark::Counter::kIsRate);
+}
+BENCHMARK(BM_MlpForwardBackward)->Arg(4096)->Arg(256)->ArgNames({"batch"})->Unit(benchmark::kMillisecond)->UseRealTime();
+
+void BM_KlWithGradient(benchmark::State& state) {
+  const Index d = 63, B = state.range(0);
+  const Eigen::MatrixXf mp = random_input(d, B), mq = random_input(d, B) * 0.5f;
+  const Eigen::MatrixXf lp = Eigen::MatrixXf::Constant(d, 1, -0.5f), lq = Eigen::MatrixXf::Constant(d, 1, -0.3f);
+  Eigen::MatrixXf gmq = Eigen::MatrixXf::Zero(d, B), glq = Eigen::MatrixXf::Zero(d, 1);
+  for (auto _ : state) {
+    gmq.setZero();
+    glq.setZero();
+    float v = kl_diag_gaussian_mean<float>(mp, lp, mq, lq, {nullptr, nullptr, &gmq, &glq}, {true, 1.0});
+    benchmark::DoNotOptimize(v);
+    benchmark::DoNotOptimize(gmq.data());
+  }
+}
+BENCHMARK(BM_KlWithGradient)->Arg(4096)->ArgNames({"batch"})->Unit(benchmark::kMicrosecond);
+
+// ---- LibTorch peers -----------------------------------------------------------------------------
+#ifdef MASKADAPT_WITH_TORCH
+torch::nn::Sequential torch_mlp(const MlpSpec& s) {
+  torch::nn::Sequential seq;
+  Index in = s.inputs;
+  for (Index h : s.hidden) {
+    seq->push_back(torch::nn::Linear(in, h));
+    seq->push_back(torch::nn::ReLU());
+    in = h;
+  }
+  seq->push_back(torch::nn::Linear(in, s.outputs));
+  return seq;
+}
+
+void BM_TorchMlpForward(benchmark::State& state) {
+  torch::set_num_threads(1);  // best setting measured on this machine (OpenBLAS still threads)
+  torch::NoGradGuard no_grad;
+  const Index batch = state.range(0);
+  const MlpSpec spec = state.range(1) == 0 ? big_spec() : small_spec();
+  auto net = torch_mlp(spec);
+  auto x = torch::randn({batch, spec.inputs});
+  for (auto _ : state) {
+    auto y = net->forward(x);
+    benchmark::DoNotOptimize(y.data_ptr());
+  }
+  state.counters["FLOPS"] = benchmark::Counter(2 * macs_per_sample(spec) * double(batch) * double(state.iterations()),
+                                               benchmark::Counter::kIsRate);
+}
+BENCHMARK(BM_TorchMlpForward)
+    ->Args({4096, 0})->Args({256, 0})->Args({1, 0})->Args({1, 1})
+    ->ArgNames({"batch", "small"})->Unit(benchmark::kMicrosecond)->UseRealTime();
+
+void BM_TorchMlpForwardBackward(benchmark::State& state) {
+  torch::set_num_threads(1);
+  const Index batch = state.range(0);
+  const MlpSpec spec = big_spec();
+  auto net = torch_mlp(spec);
+  auto x = torch::randn({batch, spec.inputs});
+  auto dy = torch::randn({batch, spec.outputs});
+  for (auto _ : state) {
+    net->zero_grad();
+    auto y = net->forward(x);
+    y.backward(dy);
+    benchmark::DoNotOptimize(y.data_ptr());
+  }
+  const double macs = 3 * macs_per_sample(spec) - double(spec.inputs) * double(spec.hidden[0]);
+  state.counters["FLOPS"] =
+      benchmark::Counter(2 * macs * double(batch) * double(state.iterations()), benchmark::Counter::kIsRate);
+}
+BENCHMARK(BM_TorchMlpForwardBackward)->Arg(4096)->Arg(256)->ArgNames({"batch"})->Unit(benchmark::kMillisecond)->UseRealTime();
+
+void BM_TorchKlWithGradient(benchmark::State& state) {
+  torch::set_num_threads(1);
+  const long d = 63, B = state.range(0);
+  auto mp = torch::randn({B, d}), lp = torch::full({d}, -0.5f);
+  auto mq = (torch::randn({B, d}) * 0.5).requires_grad_(true);
+  auto lq = torch::full({d}, -0.3f).requires_grad_(true);
+  for (auto _ : state) {
+    if (mq.grad().defined()) {
+      mq.grad().zero_();
+      lq.grad().zero_();
+    }
+    auto vq = torch::exp(2 * lq), vp = torch::exp(2 * lp);
+    auto kl = (lq - lp + (vp + (mp - mq).pow(2)) / (2 * vq) - 0.5).sum(1).mean();
+    kl.backward();
+    benchmark::DoNotOptimize(kl.data_ptr());
+  }
+}
+BENCHMARK(BM_TorchKlWithGradient)->Arg(4096)->ArgNames({"batch"})->Unit(benchmark::kMicrosecond);
+#endif
+
+}  // namespace
+
+BENCHMARK_MAIN();
