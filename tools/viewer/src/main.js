@@ -183,6 +183,7 @@ const state = { frame: 0, time: 0, views: [], logs: { runs: [], series: [] } };
 Object.defineProperty(state, 'playing', { get: () => player.playing, enumerable: true });
 Object.defineProperty(state, 'speed', { get: () => player.speed, enumerable: true });
 window.__viewerState = state;
+window.__viewerSlots = slots;  // the views (three.js scenes), for debugging from the console
 
 let lastStamp = null;
 function animate(stamp) {
@@ -192,9 +193,7 @@ function animate(stamp) {
     player.tick(dt);
     if (!player.playing) playBtn.textContent = 'Play';
     showTime(player.time);
-  } else {
-    for (const s of slots) if (s.rollout) s.view.render();  // orbit controls may have moved
-  }
+  }  // paused: views re-render on demand (orbit controls' change events, resizes)
   requestAnimationFrame(animate);
 }
 requestAnimationFrame(animate);
@@ -260,7 +259,9 @@ function renderCharts() {
     hint.textContent = 'Drop training log files here (several runs are overlaid).';
     charts.append(hint);
   }
-  const width = Math.max(460, Math.min(720, charts.clientWidth - 40));
+  // Two charts per row on wide screens (grid gap 16 px, padding 2 × 16 px).
+  const inner = charts.clientWidth - 32;
+  const width = Math.max(320, inner >= 1000 ? Math.floor((inner - 16) / 2) : inner);
   for (const key of [...selected].sort()) {
     const box = document.createElement('div');
     charts.append(box);

@@ -47,10 +47,11 @@ export class RolloutView {
     this.scene.background = new THREE.Color('#f4f5f7');
     this.camera = new THREE.PerspectiveCamera(45, 1, 0.05, 200);
     this.camera.up.copy(UP);
-    this.camera.position.set(3.2, -3.2, 1.9);
+    this.camera.position.set(2.6, -3.4, 2.3);
     this.controls = new OrbitControls(this.camera, this.renderer.domElement);
     this.controls.target.set(0, 0, 0.9);
     this.controls.update();
+    this.controls.addEventListener('change', () => this.render());
 
     this.scene.add(new THREE.HemisphereLight('#ffffff', '#8a8f99', 1.6));
     const sun = new THREE.DirectionalLight('#ffffff', 1.8);
@@ -61,12 +62,28 @@ export class RolloutView {
     this.sun = sun;
     this.scene.add(sun, sun.target);
 
-    const ground = new THREE.Mesh(new THREE.PlaneGeometry(200, 200), new THREE.ShadowMaterial({ opacity: 0.18 }));
+    // Ground: a 200 m plane with a 1 m checker-grid texture (a texture rather than GridHelper
+    // lines, which Chromium's software renderer clips away near the camera).
+    const tile = document.createElement('canvas');
+    tile.width = tile.height = 128;
+    const ctx = tile.getContext('2d');
+    ctx.fillStyle = '#f1f3f5';
+    ctx.fillRect(0, 0, 128, 128);
+    ctx.fillStyle = '#e6e9ed';
+    ctx.fillRect(0, 0, 64, 64);
+    ctx.fillRect(64, 64, 64, 64);
+    ctx.strokeStyle = '#b9bfc7';
+    ctx.lineWidth = 2;
+    ctx.strokeRect(0, 0, 128, 128);
+    const texture = new THREE.CanvasTexture(tile);
+    texture.wrapS = texture.wrapT = THREE.RepeatWrapping;
+    texture.repeat.set(100, 100);  // one 128 px tile = 2 m: 1 m checker cells
+    texture.colorSpace = THREE.SRGBColorSpace;
+    texture.anisotropy = 8;
+    const ground = new THREE.Mesh(new THREE.PlaneGeometry(200, 200), new THREE.MeshStandardMaterial({ map: texture, roughness: 1 }));
     ground.receiveShadow = true;
     this.scene.add(ground);
-    const grid = new THREE.GridHelper(200, 200, '#9aa3ad', '#d3d7dc');
-    grid.rotation.x = Math.PI / 2;  // GridHelper lies in xz; ours is the xy plane (z-up)
-    this.scene.add(grid);
+    this.ground = ground;
 
     this.character = new THREE.Group();
     this.goalGroup = new THREE.Group();
@@ -140,7 +157,7 @@ export class RolloutView {
     const root = new THREE.Vector3(...bodyPosition(r, f, 0));
     if (snapCamera || !this.lastRoot) {
       this.controls.target.set(root.x, root.y, Math.max(root.z, 0.5));
-      this.camera.position.set(root.x + 3.2, root.y - 3.2, 1.9);
+      this.camera.position.set(root.x + 2.6, root.y - 3.4, 2.3);
     } else {
       const delta = root.clone().sub(this.lastRoot);
       delta.z = 0;  // follow horizontally; vertical bobbing would make the view shake

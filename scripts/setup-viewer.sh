@@ -1,0 +1,33 @@
+#!/usr/bin/env bash
+# Installs the web viewer's npm dependencies from the lock file (tools/viewer/package-lock.json)
+# and builds it into tools/viewer/dist. Downloads no browser: the end-to-end test uses Debian's
+# Chromium (apt-get install chromium) through playwright-core.
+#
+#   scripts/setup-viewer.sh            # npm ci + npm run build
+#   scripts/setup-viewer.sh --test     # also run the unit tests (vitest)
+set -euo pipefail
+cd "$(dirname "$0")/../tools/viewer"
+
+if ! command -v npm >/dev/null 2>&1; then
+  echo "setup-viewer: npm not found (install Node.js >= 20, e.g. apt-get install nodejs npm)" >&2
+  exit 1
+fi
+# playwright-core must not try to download browsers.
+export PLAYWRIGHT_SKIP_BROWSER_DOWNLOAD=1
+# `npm ci` refuses a lock file that lacks other platforms' optional packages (rollup/esbuild
+# binaries for macOS, Windows, …), which happens when the lock was made against a registry that
+# serves only the Linux ones. Then fall back to `npm install --no-save`: it installs exactly the
+# versions pinned in the lock and leaves the lock file untouched.
+if ! npm ci --no-audit --no-fund; then
+  echo "setup-viewer: npm ci failed; installing the lock file's versions with npm install --no-save" >&2
+  npm install --no-save --no-audit --no-fund
+fi
+npm run build
+if [[ "${1:-}" == "--test" ]]; then
+  npm test
+fi
+if [[ ! -x /usr/bin/chromium ]]; then
+  echo "setup-viewer: note: /usr/bin/chromium is missing; the viewer e2e test (ctest -R viewer_e2e) will be skipped." >&2
+  echo "              install it with: apt-get install chromium" >&2
+fi
+echo "setup-viewer: built tools/viewer/dist — serve it with: python3 -m http.server -d tools/viewer/dist 8000"

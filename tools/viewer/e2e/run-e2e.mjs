@@ -1,0 +1,229 @@
+// End-to-end test of the viewer in headless Chromium (Debian's /usr/bin/chromium, driven by
+// playwright-core; no browser download).
+//
+//   node e2e/run-e2e.mjs --rollout-a A.json [--rollout-b B.json] [--out DIR]
+//
+// Builds the viewer into DIR/dist (vite), serves it on 127.0.0.1, loads rollout A through the
+// file picker, checks that frames advance while playing and that the masked (adapted) body parts
+// carry their part colour (via the window.__viewerState hook and in the rendered pixels), loads B
+// side by side, opens two training logs, and saves screenshots into DIR.
+// Exit codes: 0 pass, 1 fail, 77 skipped (no Chromium / node_modules) — ctest SKIP_RETURN_CODE.
+import { spawnSync } from 'node:child_process';
+import fs from 'node:fs';
+import http from 'node:http';
+import os from 'node:os';
+import path from 'node:path';
+import { fileURLToPath } from 'node:url';
+
+const t0 = Date.now();
+const here = path.dirname(fileURLToPath(import.meta.url));
+const root = path.resolve(here, '..');
+const CHROMIUM = process.env.MASKADAPT_CHROMIUM || '/usr/bin/chromium';
+
+function skip(msg) {
+  console.log(`SKIP: ${msg}`);
+  process.exit(77);
+}
+function fail(msg) {
+  console.error(`FAIL: ${msg}`);
+  process.exitCode = 1;
+  throw new Error(msg);
+}
+function check(cond, msg) {
+  if (!cond) fail(msg);
+  console.log(`ok - ${msg} [${((Date.now() - t0) / 1000).toFixed(1)} s]`);
+}
+
+const args = Object.fromEntries(
+  process.argv.slice(2).reduce((acc, a, i, all) => (a.startsWith('--') ? [...acc, [a.slice(2), all[i + 1]]] : acc), []),
+);
+if (!args['rollout-a']) {
+  console.error('usage: node e2e/run-e2e.mjs --rollout-a A.json [--rollout-b B.json] [--out DIR]');
+  process.exit(2);
+}
+const outDir = path.resolve(args.out || path.join(root, 'test-results'));
+fs.mkdirSync(outDir, { recursive: true });
+
+if (!fs.existsSync(CHROMIUM)) skip(`Chromium not found at ${CHROMIUM} (install Debian's chromium package)`);
+if (!fs.existsSync(path.join(root, 'node_modules', 'playwright-core')) || !fs.existsSync(path.join(root, 'node_modules', 'vite')))
+  skip(`node_modules missing in ${root} (run scripts/setup-viewer.sh)`);
+
+const { chromium } = await import('playwright-core');
+const { BASE_COLOR, PART_COLORS } = await import('../src/colors.js');
+const { PART_NAMES } = await import('../src/rollout.js');
+
+// ---- build the current sources into outDir/dist ------------------------------------------------
+const dist = path.join(outDir, 'dist');
+const build = spawnSync(process.execPath, [path.join(root, 'node_modules/vite/bin/vite.js'), 'build', '--outDir', dist, '--emptyOutDir', '--logLevel', 'warn'], {
+  cwd: root,
+  encoding: 'utf8',
+});
+if (build.status !== 0) {
+  console.error(build.stdout, build.stderr);
+  fail('vite build failed');
+}
+
+// ---- static server ----------------------------------------------------------------------------
+const types = { '.html': 'text/html', '.js': 'text/javascript', '.css': 'text/css', '.json': 'application/json' };
+const server = http.createServer((req, res) => {
+  const rel = decodeURIComponent(new URL(req.url, 'http://x').pathname);
+  const file = path.join(dist, rel === '/' ? 'index.html' : rel);
+  if (!file.startsWith(dist) || !fs.existsSync(file) || fs.statSync(file).isDirectory()) {
+    res.writeHead(404).end();
+    return;
+  }
+  res.writeHead(200, { 'content-type': types[path.extname(file)] || 'application/octet-stream' });
+  fs.createReadStream(file).pipe(res);
+});
+await new Promise((r) => server.listen(0, '127.0.0.1', r));
+const url = `http://127.0.0.1:${server.address().port}/`;
+
+const userDataDir = fs.mkdtempSync(path.join(os.tmpdir(), 'maskadapt-viewer-e2e-'));
+let context;
+try {
+  context = await chromium.launchPersistentContext(userDataDir, {
+    executablePath: CHROMIUM,
+    headless: true,
+    viewport: { width: 1280, height: 720 },
+    args: [
+      '--headless', '--no-sandbox', '--disable-gpu', '--disable-quic', '--no-first-run',
+      '--disable-background-networking', '--disable-component-update', '--disable-sync',
+      // WebGL without a GPU: Chromium's software rasteriser (SwiftShader via ANGLE).
+      '--use-angle=swiftshader', '--enable-unsafe-swiftshader',
+    ],
+  });
+  const page = context.pages()[0] || (await context.newPage());
+  const pageErrors = [];
+  page.on('pageerror', (e) => pageErrors.push(e.message));
+  page.on('console', (m) => m.type() === 'error' && pageErrors.push(m.text()));
+  await page.goto(url);
+  const state = () => page.evaluate(() => JSON.parse(JSON.stringify(window.__viewerState)));
+
+  // Load A through the file picker.
+  await page.setInputFiles('#file-a', path.resolve(args['rollout-a']));
+  await page.waitForFunction(() => window.__viewerState.views.length === 1, null, { timeout: 10000 });
+  let s = await state();
+  const nf = s.views[0].numFrames;
+  check(nf > 30 && s.views[0].bodyNames.length > 1, `rollout A loaded (${nf} frames, ${s.views[0].bodyNames.length} bodies)`);
+  check(!(await page.textContent('#status')), 'no error shown');
+
+  // Frames advance while playing.
+  await page.click('#play');
+  await page.waitForTimeout(700);
+  const f1 = (await state()).frame;
+  await page.waitForTimeout(700);
+  s = await state();
+  check(s.playing && f1 > 0 && s.frame > f1, `frames advance while playing (${f1} → ${s.frame})`);
+  await page.click('#play');  // pause
+  const paused = (await state()).frame;
+  await page.waitForTimeout(400);
+  check((await state()).frame === paused, 'pause stops playback');
+
+  // Scrub to a frame and check the colours of the masked parts.
+  async function scrubTo(frame) {
+    await page.evaluate((v) => {
+      const el = document.getElementById('scrub');
+      el.value = String(v);
+      el.dispatchEvent(new Event('input'));
+    }, frame);
+    return state();
+  }
+  function checkColours(view, label) {
+    for (let b = 0; b < view.bodyNames.length; ++b) {
+      const p = PART_NAMES.indexOf(view.bodyParts[b]);
+      const expected = (view.mask >> p) & 1 ? PART_COLORS[p] : BASE_COLOR;
+      if (view.bodyColors[b] !== expected || view.meshColors[b] !== expected)
+        fail(`${label}: body ${view.bodyNames[b]} (${view.bodyParts[b]}) coloured ${view.meshColors[b]}, expected ${expected}`);
+    }
+    const coloured = view.bodyColors.filter((c) => c !== BASE_COLOR).length;
+    check(coloured > 0, `${label}: ${coloured} bodies of the adapted parts (${view.maskLabel}) carry their part colour, the rest ${BASE_COLOR}`);
+  }
+  // Fraction of pixels of view A whose hue is within 10° of `hex` and clearly saturated
+  // (lighting changes brightness and saturation a little, hardly the hue).
+  async function pixelShare(hex) {
+    return page.evaluate((hex) => {
+      const src = document.querySelector('#view-a canvas');
+      const c = document.createElement('canvas');
+      c.width = src.width;
+      c.height = src.height;
+      const ctx = c.getContext('2d');
+      ctx.drawImage(src, 0, 0);
+      const d = ctx.getImageData(0, 0, c.width, c.height).data;
+      const hsv = (r, g, b) => {
+        const max = Math.max(r, g, b), min = Math.min(r, g, b), delta = max - min;
+        let h = 0;
+        if (delta > 0) {
+          if (max === r) h = 60 * (((g - b) / delta) % 6);
+          else if (max === g) h = 60 * ((b - r) / delta + 2);
+          else h = 60 * ((r - g) / delta + 4);
+        }
+        return [(h + 360) % 360, max ? delta / max : 0, max / 255];
+      };
+      const [th] = hsv(...[1, 3, 5].map((i) => parseInt(hex.slice(i, i + 2), 16)));
+      let hits = 0;
+      for (let i = 0; i < d.length; i += 4) {
+        const [h, s, v] = hsv(d[i], d[i + 1], d[i + 2]);
+        const dh = Math.min(Math.abs(h - th), 360 - Math.abs(h - th));
+        if (dh < 10 && s > 0.35 && v > 0.15) ++hits;
+      }
+      return hits / (d.length / 4);
+    }, hex);
+  }
+
+  s = await scrubTo(10);
+  check(s.frame === 10 && s.views[0].mask === 0b11000, `frame 10: legs adapted (mask ${s.views[0].mask})`);
+  checkColours(s.views[0], 'frame 10');
+  const legsShare = await pixelShare(PART_COLORS[3]);
+  check(legsShare > 0.001, `rendered pixels show the left-leg colour (${(100 * legsShare).toFixed(2)}% of the view)`);
+  const armShareEarly = await pixelShare(PART_COLORS[1]);
+  await page.screenshot({ path: path.join(outDir, 'viewer-legs-masked.png') });
+
+  s = await scrubTo(nf - 10);
+  check(s.views[0].mask === 0b00110, `frame ${nf - 10}: arms adapted (mask ${s.views[0].mask})`);
+  checkColours(s.views[0], `frame ${nf - 10}`);
+  const armShare = await pixelShare(PART_COLORS[1]);
+  const legsLate = await pixelShare(PART_COLORS[3]);
+  check(armShare > 0.0002 && armShare > 5 * armShareEarly, `left-arm colour appears once the arms are adapted (${(100 * armShareEarly).toFixed(3)}% → ${(100 * armShare).toFixed(3)}%)`);
+  check(legsLate < legsShare / 5, `left-leg colour disappears once the legs are no longer adapted (${(100 * legsLate).toFixed(3)}%)`);
+  await page.screenshot({ path: path.join(outDir, 'viewer-arms-masked.png') });
+  check((await page.textContent('#view-a .text')).length > 0, `text command shown: "${await page.textContent('#view-a .text')}"`);
+
+  // Side by side: B in the second view, synchronised frame.
+  if (args['rollout-b']) {
+    await page.setInputFiles('#file-b', path.resolve(args['rollout-b']));
+    await page.waitForFunction(() => window.__viewerState.views.length === 2, null, { timeout: 10000 });
+    s = await scrubTo(45);
+    check(s.views[0].frame === 45 && s.views[1].frame === 45, 'two views show the same frame');
+    await page.waitForTimeout(200);
+    await page.screenshot({ path: path.join(outDir, 'viewer-side-by-side.png') });
+  }
+
+  // Training logs: two runs overlaid.
+  const logA = path.join(outDir, 'log_mi.jsonl');
+  const logB = path.join(outDir, 'log_no_mi.jsonl');
+  const lines = (k) =>
+    Array.from({ length: 60 }, (_, i) =>
+      JSON.stringify({ iteration: i, return: k * Math.log1p(i), episode_length: 30 + k * i, mi_kl: 0.5 / (1 + i * k), samples_per_s: 900 + 10 * k, disc_reward: 0.4 + 0.1 * Math.sin(i / 7) }),
+    ).join('\n');
+  fs.writeFileSync(logA, lines(1));
+  fs.writeFileSync(logB, lines(2));
+  await page.click('#tab-logs');
+  await page.setInputFiles('#log-files', [logA, logB]);
+  await page.waitForFunction(() => window.__viewerState.logs.runs.length === 2, null, { timeout: 10000 });
+  s = await state();
+  const plots = await page.locator('#charts .uplot').count();
+  check(plots === s.logs.series.length && plots >= 4, `training logs: ${s.logs.runs.length} runs, ${plots} charts (${s.logs.series.join(', ')})`);
+  await page.screenshot({ path: path.join(outDir, 'viewer-training-logs.png') });
+
+  check(pageErrors.length === 0, `no page errors${pageErrors.length ? ': ' + pageErrors.join('; ') : ''}`);
+  console.log(`PASS (screenshots in ${outDir})`);
+} catch (e) {
+  if (!process.exitCode) {
+    console.error(`FAIL: ${e.stack || e.message}`);
+    process.exitCode = 1;
+  }
+} finally {
+  if (context) await context.close();
+  server.close();
+  fs.rmSync(userDataDir, { recursive: true, force: true });
+}
