@@ -1,0 +1,243 @@
+#pragma once
+/// \file library.hpp
+/// `MotionLibrary`: weighted clips with interpolated queries at any time — poses, velocities,
+/// body states, reset states, AMP discriminator windows and visitation features.
+///
+/// Interpolation at time t (frame u = t·fps between frames i and i+1, weight w = u − i):
+///  - root position: lerp; root rotation: slerp;
+///  - each joint: slerp of the two joint rotations R_x R_y R_z, converted back to the 3-hinge
+///    angles nearest the lerped angles (continuous; equals the lerp for single-axis motion);
+/// Velocities: central differences over ±h with h = 1/fps (one frame each side; one-sided at the
+/// ends of a non-looping clip): v = (p(t+h) − p(t−h)) / 2h, ω_root = log(R(t+h) R(t−h)ᵀ) / 2h,
+/// q̇ = wrap(q(t+h) − q(t−h)) / 2h; body velocities follow by forward_kinematics.
+/// Looping clips (period P = duration): t = kP + τ; the cycle k's root is moved by the
+/// transform G^k that takes frame 0 to the last frame (horizontal translation + yaw), so a
+/// locomotion loop keeps travelling instead of jumping back.
+#include <maskadapt/core/error.hpp>
+#include <maskadapt/core/rng.hpp>
+#include <maskadapt/humanoid/description.hpp>
+#include <maskadapt/humanoid/observation.hpp>
+#include <maskadapt/mask/parts.hpp>
+#include <maskadapt/motion/clip.hpp>
+#include <maskadapt/motion/rotation.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <vector>
+
+namespace maskadapt {
+
+/// Number of consecutive frames in one AMP discriminator sample, and their spacing (s).
+inline constexpr int kAmpWindowFrames = 5;
+inline constexpr double kAmpFrameDt = 1.0 / 30.0;
+
+/// Pose (no velocities) of a clip at time t (s). Non-looping clips clamp t to [0, duration].
+inline void clip_pose(const MotionClip& c, double t, KinematicState& out) {
+  const int T = c.num_frames();
+  require(T >= 1, "clip '" + c.name + "' has no frames", {{}, {}, "clip"});
+  require(std::isfinite(t), "time is not finite", {{}, {}, "time"});
+  const double P = c.duration();
+  long long cycle = 0;
+  if (c.loop && P > 0) {
+    cycle = static_cast<long long>(std::floor(t / P));
+    t -= static_cast<double>(cycle) * P;
+  }
+  t = std::clamp(t, 0.0, P);
+  const double u = t * c.fps;
+  const int i0 = std::min(static_cast<int>(std::floor(u)), T - 1);
+  const int i1 = std::min(i0 + 1, T - 1);
+  const double w = i1 == i0 ? 0.0 : u - i0;
+  out.root_pos = (1 - w) * c.root_pos.col(i0) + w * c.root_pos.col(i1);
+  out.root_rot = slerp(c.rot(i0), c.rot(i1), w);
+  out.q.resize(c.num_dofs());
+  for (int k = 0; k + 3 <= c.num_dofs(); k += 3) {
+    const Vec3 a0 = c.q.col(i0).segment<3>(k), a1 = c.q.col(i1).segment<3>(k);
+    if (w == 0.0 || a0 == a1) {
+      out.q.segment<3>(k) = a0;
+      continue;
+    }
+    const Quat L = slerp(joint_rotation(a0), joint_rotation(a1), w);
+    out.q.segment<3>(k) = joint_angles_near(L, (1 - w) * a0 + w * a1);
+  }
+  if (cycle != 0) {
+    // apply G^cycle: yaw by cycle·Δψ about the first frame's ground point, then translate
+    const double dpsi = wrap_angle(yaw_of(c.rot(T - 1)) - yaw_of(c.rot(0)));
+    const Vec3 p0(c.root_pos(0, 0), c.root_pos(1, 0), 0.0), pT(c.root_pos(0, T - 1), c.root_pos(1, T - 1), 0.0);
+    const Quat G(Eigen::AngleAxisd(dpsi, Vec3::UnitZ()));
+    const long long n = cycle > 0 ? cycle : -cycle;
+    const Quat Gi = G.conjugate();
+    for (long long k = 0; k < n; ++k) {
+      Vec3 flat(out.root_pos.x(), out.root_pos.y(), 0.0);
+      if (cycle > 0) {
+        flat = G * (flat - p0) + pT;
+        out.root_rot = G * out.root_rot;
+      } else {
+        flat = Gi * (flat - pT) + p0;
+        out.root_rot = Gi * out.root_rot;
+      }
+      out.root_pos.x() = flat.x();
+      out.root_pos.y() = flat.y();
+    }
+  }
+}
+
+/// Pose and velocities of a clip at time t (see file comment).
+inline void clip_state(const MotionClip& c, double t, KinematicState& out) {
+  clip_pose(c, t, out);
+  const double h = 1.0 / c.fps;
+  double t1 = t - h, t2 = t + h;
+  if (!c.loop) {
+    t1 = std::clamp(t1, 0.0, c.duration());
+    t2 = std::clamp(t2, 0.0, c.duration());
+  }
+  out.root_lin_vel.setZero();
+  out.root_ang_vel.setZero();
+  out.qd = VectorXd::Zero(c.num_dofs());
+  if (t2 - t1 <= 1e-12) return;
+  KinematicState a, b;
+  clip_pose(c, t1, a);
+  clip_pose(c, t2, b);
+  const double dt = t2 - t1;
+  out.root_lin_vel = (b.root_pos - a.root_pos) / dt;
+  out.root_ang_vel = angular_velocity(a.root_rot, b.root_rot, dt);
+  for (Index k = 0; k < out.qd.size(); ++k) out.qd[k] = wrap_angle(b.q[k] - a.q[k]) / dt;
+}
+
+/// Root-relative body positions in the root's heading frame for the bodies (≥ 1) of the parts
+/// in `parts`, body order, 3 rows each — the per-frame feature of the visitation metric.
+inline VectorXf visitation_features(const Skeleton& skel, const BodyStates& bs, PartMask parts = PartMask::all()) {
+  int n = 0;
+  for (int i = 1; i < skel.num_bodies(); ++i) n += parts.has(skel.parts[i]);
+  VectorXf f(3 * n);
+  const Mat3 Ht = heading_rotation(bs.rot[0]).toRotationMatrix().transpose();
+  int r = 0;
+  for (int i = 1; i < skel.num_bodies(); ++i)
+    if (parts.has(skel.parts[i])) {
+      f.segment<3>(3 * r++) = (Ht * (bs.pos.col(i) - bs.pos.col(0))).cast<float>();
+    }
+  return f;
+}
+
+/// A clip and a time in it.
+struct ClipTime {
+  int clip = 0;
+  double time = 0.0;  ///< s
+};
+
+class MotionLibrary {
+ public:
+  explicit MotionLibrary(const Skeleton& skel = humanoid_skeleton()) : skel_(skel) { skel_.validate(); }
+
+  /// Adds a clip (validated against the skeleton) with a sampling weight > 0; returns its index.
+  int add(MotionClip clip, double weight = 1.0) {
+    clip.validate(skel_);
+    require(std::isfinite(weight) && weight > 0, "clip weight must be positive", {{}, {}, clip.name});
+    clips_.push_back(std::move(clip));
+    weights_.push_back(weight);
+    return num_clips() - 1;
+  }
+
+  int num_clips() const { return static_cast<int>(clips_.size()); }
+  const MotionClip& clip(int i) const { return clips_.at(static_cast<std::size_t>(i)); }
+  double weight(int i) const { return weights_.at(static_cast<std::size_t>(i)); }
+  const Skeleton& skeleton() const { return skel_; }
+  /// Sum of all clip durations (s).
+  double total_duration() const {
+    double d = 0;
+    for (const auto& c : clips_) d += c.duration();
+    return d;
+  }
+
+  /// A clip by weight (or uniformly over clips when `by_weight` is false) and a uniform time in
+  /// [min_time, duration] (clamped when the clip is shorter than min_time).
+  ClipTime sample(Rng& rng, bool by_weight = true, double min_time = 0.0) const {
+    require(!clips_.empty(), "the motion library is empty", {{}, {}, "library"});
+    int c = 0;
+    if (by_weight) {
+      double total = 0;
+      for (double w : weights_) total += w;
+      double u = rng.uniform() * total;
+      for (c = 0; c + 1 < num_clips(); ++c) {
+        if (u < weights_[static_cast<std::size_t>(c)]) break;
+        u -= weights_[static_cast<std::size_t>(c)];
+      }
+    } else {
+      c = static_cast<int>(rng.uniform_int(static_cast<std::uint64_t>(num_clips())));
+    }
+    const double D = clips_[static_cast<std::size_t>(c)].duration();
+    const double lo = std::min(min_time, D);
+    return {c, rng.uniform(lo, D)};
+  }
+
+  /// Interpolated pose + velocities (see file comment).
+  void state(int clip, double time, KinematicState& out) const { clip_state(this->clip(clip), time, out); }
+  KinematicState state(int clip, double time) const {
+    KinematicState s;
+    state(clip, time, s);
+    return s;
+  }
+  /// World positions, rotations and velocities of every body.
+  void body_states(int clip, double time, BodyStates& out) const {
+    KinematicState s;
+    state(clip, time, s);
+    forward_kinematics(skel_, s, out);
+  }
+  BodyStates body_states(int clip, double time) const {
+    BodyStates b;
+    body_states(clip, time, b);
+    return b;
+  }
+
+  /// Reference state initialisation: a sampled (clip, time) and its state.
+  KinematicState reset_state(Rng& rng, ClipTime* where = nullptr) const {
+    const ClipTime ct = sample(rng);
+    if (where) *where = ct;
+    return state(ct.clip, ct.time);
+  }
+
+  /// Dimension of one AMP window: kAmpWindowFrames × observation_dim.
+  Index amp_window_dim() const { return kAmpWindowFrames * observation_dim(skel_); }
+
+  /// The AMP sample ending at `t_end`: observations (humanoid/observation.hpp) of the frames at
+  /// t_end − 4Δ, …, t_end (Δ = 1/30 s), oldest first, stacked into `out` (amp_window_dim()).
+  void amp_window(int clip, double t_end, Eigen::Ref<VectorXf> out) const {
+    const Index d = observation_dim(skel_);
+    require(out.size() == amp_window_dim(), "AMP window output has the wrong size", {{}, {}, "amp_window"});
+    BodyStates bs;
+    for (int k = 0; k < kAmpWindowFrames; ++k) {
+      body_states(clip, t_end - (kAmpWindowFrames - 1 - k) * kAmpFrameDt, bs);
+      compute_observation(skel_, bs, out.segment(k * d, d));
+    }
+  }
+
+  /// A batch of AMP windows from sampled (clip, time): (amp_window_dim() × batch).
+  MatrixXf sample_amp_windows(Rng& rng, int batch) const {
+    MatrixXf out(amp_window_dim(), batch);
+    for (int b = 0; b < batch; ++b) {
+      const ClipTime ct = sample(rng, true, (kAmpWindowFrames - 1) * kAmpFrameDt);
+      amp_window(ct.clip, ct.time, out.col(b));
+    }
+    return out;
+  }
+
+  /// Visitation features of every frame of a clip: (3·bodies-in-parts × num_frames).
+  MatrixXf clip_visitation_features(int clip, PartMask parts = PartMask::all()) const {
+    const MotionClip& c = this->clip(clip);
+    BodyStates bs;
+    MatrixXf out;
+    for (int t = 0; t < c.num_frames(); ++t) {
+      forward_kinematics(skel_, c.frame(t), bs);
+      const VectorXf f = visitation_features(skel_, bs, parts);
+      if (t == 0) out.resize(f.size(), c.num_frames());
+      out.col(t) = f;
+    }
+    return out;
+  }
+
+ private:
+  Skeleton skel_;
+  std::vector<MotionClip> clips_;
+  std::vector<double> weights_;
+};
+
+}  // namespace maskadapt
