@@ -1,0 +1,236 @@
+#pragma once
+/// \file discriminator.hpp
+/// The AMP discriminator D(x | c), its update, its style reward, and a weighted list of them.
+///
+/// Input: x = a window of 5 consecutive frames of *unmasked* features, concatenated
+/// (feature_dim rows), normalised by a running normaliser; optionally a conditioning vector c
+/// (cond_dim rows, e.g. the 5 part-mask bits: then this is the mask-conditioned D(s, s' | m) of
+/// stage 2), appended un-normalised. The network outputs one logit d.
+///
+/// One update on real (motion data) and fake (agent + replayed agent) batches minimises
+///     L = L_obj(d_real, d_fake)                    BCE or LSGAN, see amp_loss.hpp
+///       + w_gp · mean_real ‖∂d/∂x_norm‖²           gradient penalty on real samples (features only)
+///       + w_logit · ‖W_out‖²                       logit regularisation (output layer weights)
+///       + w_wd · Σ_l ‖W_l‖²                        weight decay (all weight matrices, not biases)
+/// with one Adam step (non-finite guard: a NaN/inf loss or gradient skips the step).
+/// Reward: BCE r = −log(max(1 − σ(d), 1e−4)); LSGAN r = max(0, 1 − ¼(d − 1)²); times reward_scale.
+///
+/// A CML-style baseline is a DiscriminatorSet: one discriminator per body-part group, each
+/// producing one reward row (one PPO objective) with its own weight.
+#include <maskadapt/core/error.hpp>
+#include <maskadapt/core/rng.hpp>
+#include <maskadapt/core/types.hpp>
+#include <maskadapt/nn/adam.hpp>
+#include <maskadapt/nn/mlp.hpp>
+#include <maskadapt/nn/normalizer.hpp>
+#include <maskadapt/rl/amp_loss.hpp>
+#include <maskadapt/rl/gradient_penalty.hpp>
+#include <maskadapt/rl/replay_buffer.hpp>
+
+#include <cmath>
+#include <string>
+#include <vector>
+
+namespace maskadapt::rl {
+
+/// Number of consecutive frames in one discriminator window (the method's choice).
+inline constexpr Index kAmpWindowFrames = 5;
+
+struct DiscriminatorConfig {
+  Index feature_dim = 0;   ///< rows of a window (5 × per-frame AMP features)
+  Index cond_dim = 0;      ///< conditioning rows (0: unconditional; 5: part mask bits)
+  std::vector<Index> hidden{1024, 1024, 512};  ///< paper preset; cpu preset e.g. {256, 256}
+  nn::Activation activation = nn::Activation::ReLU;
+  DiscriminatorLoss loss = DiscriminatorLoss::BCE;
+  double grad_penalty = 5.0;    ///< w_gp (paper 5)
+  double logit_reg = 0.05;      ///< w_logit (AMP/ASE humanoid setting 0.05)
+  double weight_decay = 1e-4;   ///< w_wd (AMP/ASE setting 1e−4)
+  double lr = 1e-4;             ///< paper 1e−4
+  double max_grad_norm = 1.0;   ///< global gradient clipping; ≤ 0 disables
+  double reward_scale = 1.0;    ///< multiplies the style reward
+  bool normalize_inputs = true;
+  double normalizer_clip = 5.0;
+
+  void validate() const {
+    require(feature_dim > 0, "must be positive", {{}, {}, "DiscriminatorConfig.feature_dim"});
+    require(cond_dim >= 0, "must be >= 0", {{}, {}, "DiscriminatorConfig.cond_dim"});
+    require(grad_penalty >= 0 && logit_reg >= 0 && weight_decay >= 0, "regularisation weights must be >= 0",
+            {{}, {}, "DiscriminatorConfig"});
+  }
+};
+
+/// Statistics of one update.
+struct DiscriminatorStats {
+  double loss = 0;           ///< total L
+  double objective = 0;      ///< L_obj
+  double grad_penalty = 0;   ///< w_gp · mean ‖∂d/∂x‖²
+  double logit_reg = 0;      ///< w_logit · ‖W_out‖²
+  double weight_decay = 0;   ///< w_wd · Σ‖W‖²
+  double real_mean = 0;      ///< mean D (BCE: probability) on real
+  double fake_mean = 0;      ///< mean D on fake
+  double accuracy = 0;       ///< fraction classified correctly
+  double grad_norm = 0;      ///< pre-clip gradient norm
+  bool skipped = false;      ///< true: a loss/gradient was non-finite; parameters unchanged
+};
+
+template <class T = float>
+class Discriminator {
+ public:
+  Discriminator() = default;
+  Discriminator(const DiscriminatorConfig& c, Rng& rng)
+      : config_((c.validate(), c)),
+        net_(nn::MlpSpec{c.feature_dim + c.cond_dim, c.hidden, 1, c.activation}, rng),
+        normalizer_(c.feature_dim, c.normalizer_clip),
+        opt_(nn::AdamConfig{.lr = c.lr, .max_grad_norm = c.max_grad_norm}) {}
+
+  const DiscriminatorConfig& config() const { return config_; }
+  nn::Mlp<T>& net() { return net_; }
+  const nn::Mlp<T>& net() const { return net_; }
+  nn::RunningNormalizer<T>& normalizer() { return normalizer_; }
+  const nn::RunningNormalizer<T>& normalizer() const { return normalizer_; }
+  nn::Adam<T>& optimizer() { return opt_; }
+
+  /// Network input [norm(features) ; cond] ((feature_dim + cond_dim) × B) into `out`.
+  void make_input(const Eigen::Ref<const MatrixX<T>>& features, const Eigen::Ref<const MatrixX<T>>& cond,
+                  MatrixX<T>& out) const {
+    require(features.rows() == config_.feature_dim, "expected " + std::to_string(config_.feature_dim) +
+                                                        " feature rows, got " + std::to_string(features.rows()),
+            {{}, {}, "Discriminator.features"});
+    require(cond.rows() == config_.cond_dim && (config_.cond_dim == 0 || cond.cols() == features.cols()),
+            "conditioning must be (" + std::to_string(config_.cond_dim) + " × batch)", {{}, {}, "Discriminator.cond"});
+    out.resize(config_.feature_dim + config_.cond_dim, features.cols());
+    if (config_.normalize_inputs) normalizer_.normalize(features, out.topRows(config_.feature_dim));
+    else out.topRows(config_.feature_dim) = features;
+    if (config_.cond_dim > 0) out.bottomRows(config_.cond_dim) = cond;
+  }
+
+  /// Logits d (1 × B). `cond` is (cond_dim × B); pass an empty matrix when cond_dim = 0.
+  RowVectorX<T> logits(const Eigen::Ref<const MatrixX<T>>& features, const Eigen::Ref<const MatrixX<T>>& cond = MatrixX<T>()) const {
+    MatrixX<T> in;
+    make_input(features, cond, in);
+    RowVectorX<T> d(features.cols());
+    nn::InferenceWorkspace<T> ws;
+    net_.forward(in, d, ws);
+    return d;
+  }
+
+  /// Style reward (1 × B), see file comment.
+  RowVectorX<T> reward(const Eigen::Ref<const MatrixX<T>>& features, const Eigen::Ref<const MatrixX<T>>& cond = MatrixX<T>()) const {
+    RowVectorX<T> r = amp_reward<T>(config_.loss, logits(features, cond));
+    return r * static_cast<T>(config_.reward_scale);
+  }
+
+  /// Adds real and agent windows to the input normaliser (call when new data arrives).
+  void update_normalizer(const Eigen::Ref<const MatrixX<T>>& features) {
+    if (config_.normalize_inputs) normalizer_.update(features);
+  }
+
+  /// One optimisation step on a real batch and a fake batch (agent + replay, + negative
+  /// expert samples if any). Conditioning matrices are (cond_dim × B) or empty.
+  DiscriminatorStats update(const Eigen::Ref<const MatrixX<T>>& real, const Eigen::Ref<const MatrixX<T>>& real_cond,
+                            const Eigen::Ref<const MatrixX<T>>& fake, const Eigen::Ref<const MatrixX<T>>& fake_cond) {
+    DiscriminatorStats st;
+    make_input(real, real_cond, in_real_);
+    make_input(fake, fake_cond, in_fake_);
+    net_.zero_grad();
+    auto grad = net_.grads();
+    const MatrixX<T>& d_real = net_.forward_train(in_real_, cache_real_);
+    const MatrixX<T>& d_fake = net_.forward_train(in_fake_, cache_fake_);
+    const AmpObjective obj = amp_objective<T>(config_.loss, d_real, d_fake, g_real_, g_fake_);
+    net_.backward(cache_real_, g_real_, grad);
+    net_.backward(cache_fake_, g_fake_, grad);
+    st.objective = obj.loss;
+    st.real_mean = obj.real_mean;
+    st.fake_mean = obj.fake_mean;
+    st.accuracy = obj.accuracy;
+    if (config_.grad_penalty > 0)
+      st.grad_penalty = gradient_penalty<T>(net_, cache_real_, config_.feature_dim, config_.grad_penalty, grad, gp_ws_);
+    const Index L = net_.num_layers();
+    if (config_.logit_reg > 0) {
+      st.logit_reg = config_.logit_reg * static_cast<double>(net_.weight(L - 1).squaredNorm());
+      net_.weight_grad(L - 1) += static_cast<T>(2 * config_.logit_reg) * net_.weight(L - 1);
+    }
+    if (config_.weight_decay > 0) {
+      for (Index l = 0; l < L; ++l) {
+        st.weight_decay += config_.weight_decay * static_cast<double>(net_.weight(l).squaredNorm());
+        net_.weight_grad(l) += static_cast<T>(2 * config_.weight_decay) * net_.weight(l);
+      }
+    }
+    st.loss = st.objective + st.grad_penalty + st.logit_reg + st.weight_decay;
+    if (!std::isfinite(st.loss) || !net_.grads().allFinite()) {
+      st.skipped = true;
+      return st;
+    }
+    const auto r = opt_.step(net_.block());
+    st.grad_norm = r.grad_norm;
+    st.skipped = !r.applied;
+    return st;
+  }
+
+ private:
+  DiscriminatorConfig config_;
+  nn::Mlp<T> net_;
+  nn::RunningNormalizer<T> normalizer_;
+  nn::Adam<T> opt_;
+  MatrixX<T> in_real_, in_fake_;
+  RowVectorX<T> g_real_, g_fake_;
+  nn::TrainCache<T> cache_real_, cache_fake_;
+  GradientPenaltyWorkspace<T> gp_ws_;
+};
+
+/// Builds the fake batch of one discriminator step: `agent` windows (dim × n) plus, when the
+/// replay buffer holds data, `num_replay` windows drawn from it; then pushes `agent` into the
+/// replay buffer (so a batch never replays itself). out: (dim × (n + drawn)).
+template <class T>
+void mix_with_replay(const Eigen::Ref<const MatrixX<T>>& agent, ReplayBuffer<T>& replay, Index num_replay, Rng& rng,
+                     MatrixX<T>& out) {
+  MatrixX<T> old;
+  const Index m = replay.empty() ? 0 : num_replay;
+  if (m > 0) replay.sample(m, rng, old);
+  out.resize(agent.rows(), agent.cols() + m);
+  out.leftCols(agent.cols()) = agent;
+  if (m > 0) out.rightCols(m) = old;
+  replay.push(agent);
+}
+
+/// A weighted list of discriminators (e.g. one per body-part group for the CML-style baseline).
+/// Member k produces reward row k; `weights` become PPO's objective weights.
+template <class T = float>
+struct DiscriminatorSet {
+  std::vector<std::string> names;
+  std::vector<Discriminator<T>> members;
+  std::vector<double> weights;
+
+  void add(std::string name, Discriminator<T> d, double weight) {
+    require(std::isfinite(weight) && weight >= 0, "weight must be finite and >= 0", {{}, {}, "DiscriminatorSet." + name});
+    names.push_back(std::move(name));
+    members.push_back(std::move(d));
+    weights.push_back(weight);
+  }
+  Index size() const { return static_cast<Index>(members.size()); }
+
+  /// Rewards (size() × B): row k = members[k].reward(features[k], conds[k]). `conds` may be
+  /// empty (no member is conditioned).
+  MatrixX<T> rewards(const std::vector<MatrixX<T>>& features, const std::vector<MatrixX<T>>& conds = {}) const {
+    require(static_cast<Index>(features.size()) == size() && (conds.empty() || conds.size() == features.size()),
+            "need one feature matrix (and one conditioning matrix) per discriminator", {{}, {}, "DiscriminatorSet.rewards"});
+    require(size() > 0, "empty discriminator set", {{}, {}, "DiscriminatorSet"});
+    const Index B = features[0].cols();
+    MatrixX<T> r(size(), B);
+    for (Index k = 0; k < size(); ++k) {
+      const auto i = static_cast<std::size_t>(k);
+      require(features[i].cols() == B, "all members must score the same batch", {{}, {}, "DiscriminatorSet.rewards"});
+      r.row(k) = conds.empty() ? members[i].reward(features[i]) : members[i].reward(features[i], conds[i]);
+    }
+    return r;
+  }
+  /// Σ_k weights[k] · rewards.row(k) (1 × B), for single-objective use.
+  RowVectorX<T> weighted_reward(const MatrixX<T>& rewards) const {
+    require(rewards.rows() == size(), "rewards must have one row per discriminator", {{}, {}, "DiscriminatorSet"});
+    RowVectorX<T> out = RowVectorX<T>::Zero(rewards.cols());
+    for (Index k = 0; k < size(); ++k) out += static_cast<T>(weights[static_cast<std::size_t>(k)]) * rewards.row(k);
+    return out;
+  }
+};
+
+}  // namespace maskadapt::rl
