@@ -5,6 +5,8 @@
 
 #include <gtest/gtest.h>
 
+#include <iostream>
+
 using namespace maskadapt;
 
 namespace {
@@ -38,6 +40,7 @@ TEST(MujocoKinematics, BodyPosesMatchLibraryForwardKinematics) {
       worst_rot = std::max(worst_rot, lib.rot[i].angularDistance(mj.rot[i]));
     }
   }
+  std::cout << "worst body position error " << worst_pos << " m, rotation error " << worst_rot << " rad\n";
   EXPECT_LT(worst_pos, 1e-5) << "metres";
   EXPECT_LT(worst_rot, 1e-5) << "radians";
 }
