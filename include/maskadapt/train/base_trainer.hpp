@@ -134,6 +134,9 @@ class BaseTrainer {
     rl::compute_gae(buf_, rl::GaeParams{cfg_.ppo.gamma, cfg_.ppo.gae_lambda});
     update_policy(st);
     update_discriminator(st);
+    // Input statistics change only between iterations, so the behaviour policy that produced
+    // buf_.log_probs is exactly the policy at the start of the PPO update.
+    policy_.ac.update_normalizers(buf_.policy_input, buf_.obs);
     st.time_update += upd.seconds();
     ++iteration_;
     samples_ += buf_.size();
@@ -272,7 +275,6 @@ class BaseTrainer {
     for (Index t = 0; t < H; ++t) {
       Stopwatch inf;
       const Index c0 = buf_.step_begin(t);
-      policy_.ac.update_normalizers(task_.policy_inputs(), task_.observations());
       buf_.obs.middleCols(c0, N) = task_.observations();
       buf_.policy_input.middleCols(c0, N) = task_.policy_inputs();
       for (Index e = 0; e < N; ++e) buf_.masks[static_cast<std::size_t>(c0 + e)] = task_.masks()[static_cast<std::size_t>(e)];

@@ -1,0 +1,65 @@
+#pragma once
+/// \file motion_sources.hpp
+/// Glue between the motion library and the trainer: build a MotionLibrary from the config's
+/// `env.motions` list, and derive the task's reset sampler (reference state initialisation with
+/// the 4 preceding reference frames as discriminator history) and the discriminator's real
+/// window sampler from it.
+#include <maskadapt/core/error.hpp>
+#include <maskadapt/motion/library.hpp>
+#include <maskadapt/motion/synthetic.hpp>
+#include <maskadapt/tasks/imitation.hpp>
+#include <maskadapt/train/base_trainer.hpp>
+
+#include <algorithm>
+#include <filesystem>
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace maskadapt::train {
+
+/// Adds every source to a library on the reference humanoid. A source is a built-in set name
+/// (`locomotion`, `synthetic`, `walk`, `arms`, `kick`, `jump`), a directory (all .bvh/.npz
+/// files in it, sorted) or one clip file. Throws naming the source when nothing can be loaded.
+inline std::shared_ptr<MotionLibrary> load_motion_library(const std::vector<std::string>& sources,
+                                                          const std::string& data_dir = motion_data_dir()) {
+  auto lib = std::make_shared<MotionLibrary>();
+  for (const auto& src : sources) {
+    namespace fs = std::filesystem;
+    if (fs::is_directory(src)) {
+      std::vector<fs::path> files;
+      for (const auto& e : fs::directory_iterator(src))
+        if (e.path().extension() == ".bvh" || e.path().extension() == ".npz") files.push_back(e.path());
+      std::sort(files.begin(), files.end());
+      require(!files.empty(), "no .bvh or .npz clips in directory", {src, std::nullopt, "env.motions"});
+      for (const auto& f : files) lib->add(import_motion(f.string()));
+    } else if (fs::is_regular_file(src)) {
+      lib->add(import_motion(src));
+    } else {
+      for (auto& c : builtin_motion_set(src, data_dir)) lib->add(std::move(c));
+    }
+  }
+  require(lib->num_clips() > 0, "no motion clips loaded", {{}, std::nullopt, "env.motions"});
+  return lib;
+}
+
+/// RSI from the library: a (clip, time ≥ 4Δ) pose plus the observations of the 4 frames before it.
+inline tasks::ResetSampler library_reset_sampler(std::shared_ptr<const MotionLibrary> lib) {
+  return [lib](Rng& rng) {
+    tasks::ResetSample r;
+    const ClipTime ct = lib->sample(rng, true, (kAmpWindowFrames - 1) * kAmpFrameDt);
+    r.pose = lib->state(ct.clip, ct.time);
+    const Index d = observation_dim(lib->skeleton());
+    VectorXf w(lib->amp_window_dim());
+    lib->amp_window(ct.clip, ct.time - kAmpFrameDt, w);  // frames t−5Δ … t−Δ; keep the last 4
+    r.history = Eigen::Map<const MatrixXf>(w.data() + d, d, kAmpWindowFrames - 1);
+    return r;
+  };
+}
+
+/// Real discriminator windows from the library (same layout as the task's windows).
+inline RealWindowSampler library_window_sampler(std::shared_ptr<const MotionLibrary> lib) {
+  return [lib](Rng& rng, Eigen::Ref<MatrixXf> out) { out = lib->sample_amp_windows(rng, static_cast<int>(out.cols())); };
+}
+
+}  // namespace maskadapt::train

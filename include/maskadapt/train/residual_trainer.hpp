@@ -1,0 +1,663 @@
+#pragma once
+/// \file residual_trainer.hpp
+/// Stage 2: trains a residual policy (adapt/residual_policy.hpp) on top of a frozen base policy,
+/// for motion composition (ours: one mask-conditioned discriminator; cml: one discriminator per
+/// body-part group) and for partial tracking (imitation discriminator on the non-designated
+/// parts + tracking reward on the designated parts).
+///
+/// Everything is one code path over a list of discriminators (rl::DiscriminatorSet) plus an
+/// optional tracking objective; each produces one reward row = one PPO objective. The critic has
+/// one output per objective, normalised by PopArt; advantages are normalised per objective and
+/// combined with the objective weights (a single objective is just normalised).
+///
+/// One iteration:
+///  1. collection (`horizon` steps × N envs): residual input [s ; a_base(s̄, m) ; m ; g] with the
+///     frozen base on the inference path; composite action â (masked DoFs only); the critic sees
+///     [s ; m ; g]; masks per episode from a set (optionally switching mid-episode); tracking goals
+///     consumed one frame per step from the goal buffer;
+///  2. rewards: row k = −log(max(1 − D_k(window_k | m), 1e−4)); tracking row exp(−‖q* − q‖²);
+///  3. GAE per objective (PopArt-denormalised values), PPO on the residual and the gain;
+///  4. discriminator steps: real samples from each source (blends for ours), fake = agent windows
+///     (+ replay) (+ negative-expert blends with mismatched masks for conditioned members).
+/// The base actor is never stepped (test: bit-identical parameters after training).
+///
+/// Limitations (documented in docs/composition.md): checkpoints hold the networks, normalisers,
+/// PopArt and counters but not optimiser moments or RNG states, so a resume is not bit-exact;
+/// the tracking task's windowed early termination ends the *goal episode* (no bootstrap, new
+/// goal trajectory and mask) without physically resetting the simulated env.
+#include <maskadapt/adapt/residual_policy.hpp>
+#include <maskadapt/core/checkpoint.hpp>
+#include <maskadapt/core/error.hpp>
+#include <maskadapt/core/rng.hpp>
+#include <maskadapt/humanoid/description.hpp>
+#include <maskadapt/nn/adam.hpp>
+#include <maskadapt/nn/popart.hpp>
+#include <maskadapt/rl/actor_critic.hpp>
+#include <maskadapt/rl/discriminator.hpp>
+#include <maskadapt/rl/gae.hpp>
+#include <maskadapt/rl/ppo_loss.hpp>
+#include <maskadapt/rl/replay_buffer.hpp>
+#include <maskadapt/rl/rollout_buffer.hpp>
+#include <maskadapt/tasks/composition.hpp>
+#include <maskadapt/tasks/imitation.hpp>
+#include <maskadapt/tracking/goals.hpp>
+#include <maskadapt/train/base_trainer.hpp>
+#include <maskadapt/train/config.hpp>
+#include <maskadapt/train/progress.hpp>
+
+#include <nlohmann/json.hpp>
+
+#include <functional>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace maskadapt::train {
+
+/// Stage-2 settings; `rl` carries run / env / ppo / disc / net sections of the stage-1 format
+/// (env.motions = the base motion set A; net.critic_hidden / disc_hidden size the new critic and
+/// discriminators).
+struct ResidualTrainConfig {
+  BaseTrainConfig rl;
+  std::string task = "composition";   ///< composition | tracking
+  std::string method = "ours";        ///< ours | cml | scratch (no base: a zero base, every DoF residual)
+  std::vector<std::string> new_motions;            ///< M_new (composition)
+  std::vector<std::string> masks = {"lower_body"}; ///< training mask set (cml / tracking: the first = fixed region)
+  double switch_rate = 0.0;           ///< mid-episode mask switches per second (ours)
+  double negative_fraction = 0.25;    ///< share of the fake batch that is negative-expert blends (ours)
+  std::vector<double> objective_weights;  ///< empty: cml 0.5/0.5, tracking 0.5/0.5, ours 1
+  std::vector<Index> residual_hidden = {256, 256};
+  std::string gain = "scalar";        ///< fixed | scalar | per_dof
+  double init_gain = 1.0;
+  // tracking
+  std::string designated = "arms";    ///< parts that follow the generated trajectory
+  Index goal_steps = 2;               ///< next target frames in the goal
+  int sample_every = 20;              ///< refill the goal buffer every N iterations
+  int goal_trajectories = 16;         ///< trajectories per refill
+  double term_window_s = 1.0;         ///< windowed-average early termination window (s)
+  double term_threshold = 0.05;       ///< … ends the goal episode when the mean tracking reward < this
+  std::string generator;              ///< generator checkpoint (CLI)
+  std::string base_checkpoint;        ///< stage-1 checkpoint (CLI; recorded for provenance)
+
+  void validate() const {
+    rl.validate("residual config");
+    require(task == "composition" || task == "tracking", "expected composition or tracking", {{}, {}, "task"});
+    require(method == "ours" || method == "cml" || method == "scratch", "expected ours, cml or scratch", {{}, {}, "method"});
+    require(!masks.empty(), "need at least one mask", {{}, {}, "masks"});
+    require(switch_rate >= 0, "must be ≥ 0", {{}, {}, "switch_rate"});
+    require(negative_fraction >= 0 && negative_fraction < 1, "must be in [0, 1)", {{}, {}, "negative_fraction"});
+    require(goal_steps >= 1 && sample_every >= 1 && goal_trajectories >= 1, "tracking counts must be ≥ 1", {{}, {}, "tracking"});
+    require(term_window_s > 0, "must be > 0", {{}, {}, "term_window_s"});
+    (void)adapt::gain_mode_from_name(gain);
+  }
+};
+
+inline nlohmann::json to_json(const ResidualTrainConfig& c) {
+  return {{"rl", to_json(c.rl)},
+          {"task", c.task},
+          {"method", c.method},
+          {"new_motions", c.new_motions},
+          {"masks", c.masks},
+          {"switch_rate", c.switch_rate},
+          {"negative_fraction", c.negative_fraction},
+          {"objective_weights", c.objective_weights},
+          {"residual_hidden", c.residual_hidden},
+          {"gain", c.gain},
+          {"init_gain", c.init_gain},
+          {"designated", c.designated},
+          {"goal_steps", c.goal_steps},
+          {"sample_every", c.sample_every},
+          {"goal_trajectories", c.goal_trajectories},
+          {"term_window_s", c.term_window_s},
+          {"term_threshold", c.term_threshold},
+          {"generator", c.generator},
+          {"base_checkpoint", c.base_checkpoint}};
+}
+
+inline ResidualTrainConfig residual_config_from_json(const nlohmann::json& j, const std::string& file = {}) {
+  ResidualTrainConfig c;
+  try {
+    c.rl = config_from_json(j.at("rl"), file);
+    c.task = j.at("task");
+    c.method = j.at("method");
+    c.new_motions = j.at("new_motions").get<std::vector<std::string>>();
+    c.masks = j.at("masks").get<std::vector<std::string>>();
+    c.switch_rate = j.at("switch_rate");
+    c.negative_fraction = j.at("negative_fraction");
+    c.objective_weights = j.at("objective_weights").get<std::vector<double>>();
+    c.residual_hidden = j.at("residual_hidden").get<std::vector<Index>>();
+    c.gain = j.at("gain");
+    c.init_gain = j.at("init_gain");
+    c.designated = j.at("designated");
+    c.goal_steps = j.at("goal_steps");
+    c.sample_every = j.at("sample_every");
+    c.goal_trajectories = j.at("goal_trajectories");
+    c.term_window_s = j.at("term_window_s");
+    c.term_threshold = j.at("term_threshold");
+    c.generator = j.at("generator");
+    c.base_checkpoint = j.at("base_checkpoint");
+  } catch (const nlohmann::json::exception& e) {
+    throw Error(std::string("bad residual config: ") + e.what(), {file, std::nullopt, "residual_config"});
+  }
+  c.validate();
+  return c;
+}
+
+inline void save_norm(Checkpoint& c, const std::string& name, const nn::RunningNormalizer<float>& n) {
+  c.put_double(name + "/count", n.count());
+  c.put(name + "/mean", n.mean());
+  c.put(name + "/m2", n.m2());
+}
+inline void load_norm(const Checkpoint& c, const std::string& name, nn::RunningNormalizer<float>& n) {
+  n.set_state(c.get_double(name + "/count"), c.get_vector<double>(name + "/mean", n.dim()),
+              c.get_vector<double>(name + "/m2", n.dim()));
+}
+
+/// The stage-1 actor stored in a base checkpoint (architecture from its "config" section).
+inline rl::GaussianActor<float> load_base_actor(const Checkpoint& ck, Index obs_dim, Index action_dim) {
+  const BaseTrainConfig bc = config_from_string(ck.get_string("config"), "base checkpoint (config)");
+  rl::ActorCriticConfig ac;
+  ac.policy_input_dim = obs_dim + kNumParts;
+  ac.critic_input_dim = obs_dim;
+  ac.action_dim = action_dim;
+  ac.actor_hidden = bc.net.actor_hidden;
+  ac.activation = activation_from_name(bc.net.activation);
+  ac.init_log_std = bc.net.init_log_std;
+  Rng dummy(0);
+  rl::GaussianActor<float> a(ac, dummy);
+  ck.copy_to<float>("actor/params", a.mean_net.params());
+  ck.copy_to<float>("actor/log_std", a.log_std.params());
+  load_norm(ck, "actor/norm", a.normalizer);
+  return a;
+}
+
+/// One reward source backed by a discriminator.
+struct DiscriminatorSource {
+  std::string name;
+  double weight = 1.0;
+  std::vector<Index> rows;   ///< rows of the 5-frame window it sees (empty: all)
+  bool conditioned = false;  ///< D(·|m): the 5 mask bits as conditioning input
+  /// B real samples: full windows (window_dim × B) and mask bits (5 × B; ignored if unconditioned).
+  std::function<void(Rng&, Index, MatrixXf&, MatrixXf&)> real;
+  /// Optional negative-expert samples (same layout), labelled fake.
+  std::function<void(Rng&, Index, MatrixXf&, MatrixXf&)> negative;
+};
+
+/// The partial-tracking objective.
+struct TrackingSource {
+  PartMask designated;
+  Index goal_steps = 2;
+  double weight = 0.5;
+  int sample_every = 20;
+  Index term_window = 30;    ///< steps
+  double term_threshold = 0.05;
+  /// Refills the goal buffer (called at construction and every `sample_every` iterations).
+  std::function<void(Rng&, tracking::GoalBuffer&)> refill;
+};
+
+/// What a residual run trains against.
+struct ResidualSetup {
+  std::vector<PartMask> masks;       ///< adapted-region set (per episode)
+  double switch_rate = 0.0;
+  double negative_fraction = 0.25;
+  std::vector<DiscriminatorSource> discriminators;
+  std::optional<TrackingSource> tracking;
+};
+
+template <Simulator Sim>
+class ResidualTrainer {
+ public:
+  ResidualTrainer(Sim& sim, tasks::ResetSampler reset, rl::GaussianActor<float> base, ResidualSetup setup,
+                  ResidualTrainConfig config, ThreadPool* pool = nullptr, std::optional<FallCriteria> fall = std::nullopt)
+      : cfg_((config.validate(), std::move(config))), setup_(std::move(setup)),
+        task_(sim, std::move(reset), no_mask_task(cfg_.rl, std::move(fall)), cfg_.rl.run.seed, pool),
+        part_elements_(task_.obs_parts()), rng_(Rng::stream(cfg_.rl.run.seed, 0x5E51D000ULL)) {
+    require(!setup_.discriminators.empty() || setup_.tracking, "a residual run needs at least one objective",
+            {{}, {}, "setup"});
+    const Index N = task_.num_envs();
+    masks_ = tasks::EpisodeMasks(setup_.masks, N, setup_.switch_rate, task_.control_dt(), cfg_.rl.run.seed);
+    Rng init = Rng::stream(cfg_.rl.run.seed, 0x2E51ULL);
+    adapt::ResidualConfig rc;
+    rc.hidden = cfg_.residual_hidden;
+    rc.activation = activation_from_name(cfg_.rl.net.activation);
+    rc.gain = adapt::gain_mode_from_name(cfg_.gain);
+    rc.init_gain = cfg_.init_gain;
+    if (setup_.tracking) {
+      bodies_ = tracking::designated_bodies(sim.skeleton(), setup_.tracking->designated);
+      rc.goal_dim = tracking::goal_dim(sim.skeleton(), setup_.tracking->designated, setup_.tracking->goal_steps);
+    }
+    policy_ = adapt::ResidualPolicy<float>(std::move(base), task_.obs_dim(), action_parts(sim.skeleton()), rc, init);
+    K_ = static_cast<Index>(setup_.discriminators.size()) + (setup_.tracking ? 1 : 0);
+    for (const auto& d : setup_.discriminators) weights_.push_back(d.weight);
+    if (setup_.tracking) weights_.push_back(setup_.tracking->weight);
+    rl::ActorCriticConfig cc;
+    cc.policy_input_dim = critic_dim();
+    cc.critic_input_dim = critic_dim();
+    cc.action_dim = 1;
+    cc.num_values = K_;
+    cc.critic_hidden = cfg_.rl.net.critic_hidden;
+    cc.activation = rc.activation;
+    critic_ = rl::Critic<float>(cc, init);
+    popart_ = nn::PopArt<float>(K_, 1e-2);
+    actor_opt_ = nn::Adam<float>({cfg_.rl.ppo.actor_lr, 0.9, 0.999, 1e-8, 0.0, false, cfg_.rl.ppo.max_grad_norm});
+    critic_opt_ = nn::Adam<float>({cfg_.rl.ppo.critic_lr, 0.9, 0.999, 1e-8, 0.0, false, cfg_.rl.ppo.max_grad_norm});
+    const Index W = task_.amp_dim();
+    for (const auto& src : setup_.discriminators) {
+      require(static_cast<bool>(src.real), "discriminator '" + src.name + "' has no real sampler", {{}, {}, "setup"});
+      rl::DiscriminatorConfig dc;
+      dc.feature_dim = src.rows.empty() ? W : static_cast<Index>(src.rows.size());
+      dc.cond_dim = src.conditioned ? kNumParts : 0;
+      dc.hidden = cfg_.rl.net.disc_hidden;
+      dc.activation = rc.activation;
+      dc.loss = cfg_.rl.disc.lsgan ? rl::DiscriminatorLoss::LSGAN : rl::DiscriminatorLoss::BCE;
+      dc.grad_penalty = cfg_.rl.disc.gradient_penalty;
+      dc.logit_reg = cfg_.rl.disc.logit_reg;
+      dc.weight_decay = cfg_.rl.disc.weight_decay;
+      dc.lr = cfg_.rl.disc.lr;
+      dc.reward_scale = cfg_.rl.disc.reward_scale;
+      discs_.add(src.name, rl::Discriminator<float>(dc, init), src.weight);
+      replays_.emplace_back(dc.feature_dim + dc.cond_dim, cfg_.rl.disc.replay_size);
+    }
+    rl::RolloutSpec spec;
+    spec.horizon = cfg_.rl.ppo.horizon;
+    spec.num_envs = N;
+    spec.obs_dim = critic_dim();
+    spec.policy_input_dim = policy_.input_dim();
+    spec.action_dim = policy_.action_dim();
+    spec.num_objectives = K_;
+    spec.amp_dim = W;
+    buf_.resize(spec);
+    if (setup_.tracking) {
+      term_ = tracking::WindowedTermination(N, setup_.tracking->term_window, setup_.tracking->term_threshold);
+      require(static_cast<bool>(setup_.tracking->refill), "tracking needs a goal-buffer refill function", {{}, {}, "setup"});
+      setup_.tracking->refill(rng_, goals_);
+      goal_index_.assign(static_cast<std::size_t>(N), 0);
+      goal_frame_.assign(static_cast<std::size_t>(N), 0);
+      for (Index e = 0; e < N; ++e) goal_index_[static_cast<std::size_t>(e)] = goals_.draw(rng_);
+      last_track_.assign(static_cast<std::size_t>(N), 0.0f);
+    }
+  }
+
+  const BaseTrainConfig& config() const { return cfg_.rl; }
+  const ResidualTrainConfig& residual_config() const { return cfg_; }
+  const adapt::ResidualPolicy<float>& policy() const { return policy_; }
+  tasks::ImitationTask<Sim>& task() { return task_; }
+  const rl::DiscriminatorSet<float>& discriminators() const { return discs_; }
+  Index num_objectives() const { return K_; }
+  long long iteration() const { return iteration_; }
+  long long samples() const { return samples_; }
+  /// Mean tracking reward exp(−‖q* − q‖²) of the last iteration (NaN without tracking).
+  double last_tracking_reward() const { return last_tracking_reward_; }
+  /// Critic input rows [s ; m ; g].
+  Index critic_dim() const { return task_.obs_dim() + kNumParts + policy_goal_dim(); }
+
+  IterationStats iterate() {
+    IterationStats st;
+    Stopwatch total;
+    task_.stats().clear();
+    if (setup_.tracking && iteration_ > 0 && iteration_ % setup_.tracking->sample_every == 0) {
+      setup_.tracking->refill(rng_, goals_);
+      for (auto& g : goal_index_) g = std::min<std::size_t>(g, goals_.trajectories.size() - 1);
+    }
+    collect(st);
+    Stopwatch upd;
+    compute_rewards(st);
+    rl::compute_gae(buf_, rl::GaeParams{cfg_.rl.ppo.gamma, cfg_.rl.ppo.gae_lambda});
+    update_policy(st);
+    update_discriminators(st);
+    st.time_update += upd.seconds();
+    ++iteration_;
+    samples_ += buf_.size();
+    const auto& es = task_.stats();
+    st.iteration = iteration_;
+    st.samples = samples_;
+    st.time_total = total.seconds();
+    st.samples_per_s = static_cast<double>(buf_.size()) / std::max(1e-9, st.time_total);
+    st.episode_length = es.mean_length();
+    st.episodes = static_cast<double>(es.episodes);
+    st.fall_rate = es.fall_rate();
+    st.mask_fraction = 1.0;
+    st.sim_resets = es.sim_resets;
+    return st;
+  }
+
+  /// Networks + config (not optimiser moments / RNG states: resume is not bit-exact).
+  void save(Checkpoint& c) const {
+    c.put_string("residual_config", to_json(cfg_).dump());
+    c.put_string("config", to_json(cfg_.rl).dump());
+    policy_.save(c, true);
+    c.put("critic/params", critic_.net.params());
+    save_norm(c, "critic/norm", critic_.normalizer);
+    c.put("popart/mean", popart_.mean());
+    c.put("popart/nu", popart_.second_moment());
+    for (Index k = 0; k < discs_.size(); ++k) {
+      const auto& d = discs_.members[static_cast<std::size_t>(k)];
+      const std::string p = "disc/" + std::to_string(k);
+      c.put(p + "/params", d.net().params());
+      save_norm(c, p + "/norm", d.normalizer());
+    }
+    c.put_int("trainer/iteration", iteration_);
+    c.put_int("trainer/samples", samples_);
+  }
+  void save(const std::string& path) const {
+    Checkpoint c;
+    save(c);
+    save_checkpoint(path, c);
+  }
+  /// Restores the networks written by `save` (same sizes).
+  void load(const Checkpoint& c) {
+    policy_.load(c, true);
+    c.copy_to<float>("critic/params", critic_.net.params());
+    load_norm(c, "critic/norm", critic_.normalizer);
+    popart_.set_state(c.get_vector<double>("popart/mean", K_), c.get_vector<double>("popart/nu", K_));
+    for (Index k = 0; k < discs_.size(); ++k) {
+      auto& d = discs_.members[static_cast<std::size_t>(k)];
+      const std::string p = "disc/" + std::to_string(k);
+      c.copy_to<float>(p + "/params", d.net().params());
+      load_norm(c, p + "/norm", d.normalizer());
+    }
+    iteration_ = c.get_int("trainer/iteration");
+    samples_ = c.get_int("trainer/samples");
+  }
+
+ private:
+  static tasks::ImitationTaskConfig no_mask_task(const BaseTrainConfig& c, std::optional<FallCriteria> fall) {
+    tasks::ImitationTaskConfig t = task_config(c, std::move(fall));
+    t.masking = false;  // masks are the residual's (EpisodeMasks), not the task's
+    return t;
+  }
+  Index policy_goal_dim() const { return policy_.goal_dim(); }
+
+  /// Goals (goal_dim × N) for the current step of every env.
+  void current_goals(MatrixXf& g) const {
+    const Index N = task_.num_envs(), G = policy_goal_dim();
+    g.resize(G, N);
+    if (G == 0) return;
+    for (Index e = 0; e < N; ++e) {
+      const auto ue = static_cast<std::size_t>(e);
+      tracking::extract_goals(task_.sim().skeleton(), bodies_, goals_.trajectories[goal_index_[ue]], goal_frame_[ue],
+                              setup_.tracking->goal_steps, g.col(e));
+    }
+  }
+
+  void critic_input(const MatrixXf& obs, const std::vector<PartMask>& masks, const MatrixXf& goals, MatrixXf& out) const {
+    const Index d = task_.obs_dim(), G = policy_goal_dim();
+    out.resize(critic_dim(), obs.cols());
+    out.topRows(d) = obs;
+    out.middleRows(d, kNumParts) = tasks::mask_bits(masks);
+    if (G > 0) out.bottomRows(G) = goals;
+  }
+
+  void values(const MatrixXf& cin, MatrixXf& v) {
+    MatrixXf vn(K_, cin.cols());
+    critic_.value(cin, vn, critic_ws_, scratch_);
+    v.resize(K_, cin.cols());
+    popart_.denormalize(vn, v);
+  }
+
+  // ---- 1. collection ----------------------------------------------------------------------
+  void collect(IterationStats& st) {
+    const Index N = task_.num_envs(), H = cfg_.rl.ppo.horizon;
+    track_rewards_.setZero(buf_.size());
+    MatrixXf goals, x, cin, v;
+    for (Index t = 0; t < H; ++t) {
+      Stopwatch inf;
+      const Index c0 = buf_.step_begin(t);
+      const std::vector<PartMask> masks = masks_.masks();
+      current_goals(goals);
+      policy_.build_input(part_elements_, task_.observations(), masks, goals, x, ws_);
+      critic_input(task_.observations(), masks, goals, cin);
+      policy_.residual().normalizer.update(x);
+      critic_.normalizer.update(cin);
+      buf_.obs.middleCols(c0, N) = cin;
+      buf_.policy_input.middleCols(c0, N) = x;
+      for (Index e = 0; e < N; ++e) buf_.masks[static_cast<std::size_t>(c0 + e)] = masks[static_cast<std::size_t>(e)];
+      policy_.act(x, masks, rng_, actions_, logp_, mu_, ws_);
+      values(cin, v);
+      buf_.actions.middleCols(c0, N) = actions_;
+      buf_.log_probs.segment(c0, N) = logp_;
+      buf_.values.middleCols(c0, N) = v;
+      st.time_inference += inf.seconds();
+
+      Stopwatch sim;
+      task_.step(actions_);
+      st.time_sim += sim.seconds();
+
+      Stopwatch inf2;
+      buf_.amp_windows.middleCols(c0, N) = task_.amp_windows();
+      bool any_truncated = false;
+      for (Index e = 0; e < N; ++e) {
+        const auto ue = static_cast<std::size_t>(e);
+        bool term = task_.terminated()[ue] != 0;
+        const bool trunc = task_.truncated()[ue] != 0;
+        if (setup_.tracking) {
+          // Reward of the target frame reached by this step. An env the task already reset has
+          // no post-step state left: it keeps its previous tracking reward.
+          const std::size_t gf = goal_frame_[ue] + 1;
+          const auto& traj = goals_.trajectories[goal_index_[ue]];
+          if (!term && !trunc) {
+            const Index f = std::min<Index>(static_cast<Index>(gf), traj.num_frames() - 1);
+            last_track_[ue] = static_cast<float>(tracking::tracking_reward(task_.sim().skeleton(), bodies_, traj.q.col(f),
+                                                                          task_.sim().body_states(ue)));
+            if (term_.push(e, last_track_[ue])) term = true;  // windowed average too low: end the goal episode
+          }
+          track_rewards_(0, c0 + e) = last_track_[ue];
+        }
+        buf_.terminated[static_cast<std::size_t>(c0 + e)] = term ? 1 : 0;
+        buf_.truncated[static_cast<std::size_t>(c0 + e)] = (!term && trunc) ? 1 : 0;
+        any_truncated |= (!term && trunc);
+        if (term || trunc) {
+          masks_.new_episode(e);
+          if (setup_.tracking) {
+            goal_index_[ue] = goals_.draw(rng_);
+            goal_frame_[ue] = 0;
+            term_.reset(e);
+          }
+        } else {
+          masks_.maybe_switch(e);
+          if (setup_.tracking) ++goal_frame_[ue];
+        }
+      }
+      if (any_truncated) {
+        critic_input(task_.final_observations(), masks, goals, cin);
+        values(cin, v);
+        buf_.final_values.middleCols(c0, N) = v;
+      }
+      st.time_inference += inf2.seconds();
+    }
+    current_goals(goals);
+    critic_input(task_.observations(), masks_.masks(), goals, cin);
+    values(cin, v);
+    buf_.bootstrap_values = v;
+  }
+
+  // ---- 2. rewards -------------------------------------------------------------------------
+  void member_inputs(std::size_t k, const Eigen::Ref<const MatrixXf>& windows, const std::vector<PartMask>& masks,
+                     MatrixXf& feat, MatrixXf& cond) const {
+    const auto& src = setup_.discriminators[k];
+    if (src.rows.empty()) feat = windows;
+    else tasks::select_rows(windows, src.rows, feat);
+    if (src.conditioned) cond = tasks::mask_bits(masks);
+    else cond.resize(0, windows.cols());
+  }
+
+  void compute_rewards(IterationStats& st) {
+    MatrixXf feat, cond;
+    for (std::size_t k = 0; k < setup_.discriminators.size(); ++k) {
+      member_inputs(k, buf_.amp_windows, buf_.masks, feat, cond);
+      buf_.rewards.row(static_cast<Index>(k)) = discs_.members[k].reward(feat, cond);
+    }
+    if (setup_.tracking) {
+      buf_.rewards.row(K_ - 1) = track_rewards_;
+      last_tracking_reward_ = track_rewards_.cast<double>().mean();
+    }
+    double w = 0;
+    for (Index k = 0; k < static_cast<Index>(setup_.discriminators.size()); ++k) {
+      w += weights_[static_cast<std::size_t>(k)] * buf_.rewards.row(k).cast<double>().mean();
+    }
+    st.disc_reward = w;
+  }
+
+  // ---- 3. PPO on the residual -------------------------------------------------------------
+  void update_policy(IterationStats& st) {
+    MatrixXf adv_k = buf_.advantages;
+    rl::normalize_rows(adv_k);
+    RowVectorXf adv = RowVectorXf::Zero(buf_.size());
+    for (Index k = 0; k < K_; ++k) adv += static_cast<float>(weights_[static_cast<std::size_t>(k)]) * adv_k.row(k);
+    // PopArt: rescale the critic's last layer to the new return statistics, then regress the
+    // normalised returns.
+    popart_.update(buf_.returns, critic_.net);
+    MatrixXf ret_n(K_, buf_.size());
+    popart_.normalize(buf_.returns, ret_n);
+    const Index n = buf_.size();
+    const Index nmb = std::max<Index>(1, std::min<Index>(n, n / std::max<Index>(1, cfg_.rl.ppo.minibatch_size)));
+    double sum_pl = 0, sum_vl = 0, sum_kl = 0, sum_cf = 0, sum_gn = 0;
+    int count = 0;
+    MatrixXf x, act, cin, norm_cin, dmu, dv, target, vold;
+    RowVectorXf lp_old, a_mb, lp_new, dlogp;
+    std::vector<PartMask> ms;
+    for (int epoch = 0; epoch < cfg_.rl.ppo.epochs; ++epoch) {
+      for (const auto& idx : rl::minibatch_indices(n, nmb, rng_)) {
+        rl::gather_columns(buf_.policy_input, idx, x);
+        rl::gather_columns(buf_.actions, idx, act);
+        rl::gather_columns(buf_.obs, idx, cin);
+        rl::gather_columns(ret_n, idx, target);
+        const Index B = static_cast<Index>(idx.size());
+        ms.resize(static_cast<std::size_t>(B));
+        lp_old.resize(B);
+        a_mb.resize(B);
+        for (Index j = 0; j < B; ++j) {
+          const Index c = idx[static_cast<std::size_t>(j)];
+          lp_old[j] = buf_.log_probs[c];
+          a_mb[j] = adv[c];
+          ms[static_cast<std::size_t>(j)] = buf_.masks[static_cast<std::size_t>(c)];
+        }
+        policy_.zero_grad();
+        const MatrixXf& mu = policy_.forward_train(x, ms, cache_);
+        policy_.log_prob(cache_, act, lp_new);
+        const auto sur = rl::clipped_surrogate<float>(lp_new, lp_old, a_mb, cfg_.rl.ppo.clip, dlogp);
+        adapt::ResidualPolicy<float>::log_prob_mean_grad(cache_, act, dlogp, dmu);
+        const float bound = static_cast<float>(M_PI), wb = static_cast<float>(cfg_.rl.ppo.action_bound_weight);
+        dmu.array() += wb / static_cast<float>(B) * ((mu.array() - bound).max(0.0f) + (mu.array() + bound).min(0.0f)) * 2.0f;
+        policy_.backward(cache_, dmu);
+        const auto ar = actor_opt_.step(policy_.trainable_blocks());
+        if (!ar.applied) ++st.skipped_updates;
+        critic_.net.zero_grad();
+        critic_.normalize(cin, norm_cin);
+        const MatrixXf& v = critic_.net.forward_train(norm_cin, critic_cache_);
+        vold = v;
+        const double vl = rl::value_loss<float>(v, vold, target, 0.0, dv);
+        dv *= static_cast<float>(cfg_.rl.ppo.critic_weight);
+        critic_.net.backward(critic_cache_, dv, critic_.net.grads());
+        const auto cr = critic_opt_.step(critic_.net.block());
+        if (!cr.applied) ++st.skipped_updates;
+        sum_pl += sur.loss;
+        sum_vl += vl;
+        sum_kl += sur.approx_kl;
+        sum_cf += sur.clip_frac;
+        sum_gn += ar.grad_norm;
+        ++count;
+      }
+    }
+    st.policy_loss = sum_pl / count;
+    st.value_loss = sum_vl / count;
+    st.approx_kl = sum_kl / count;
+    st.clip_frac = sum_cf / count;
+    st.grad_norm = sum_gn / count;
+    st.entropy = nn::gaussian_entropy<float>(Eigen::Map<const MatrixXf>(policy_.residual().log_std.params().data(),
+                                                                         policy_.action_dim(), 1))(0);
+  }
+
+  // ---- 4. discriminators ------------------------------------------------------------------
+  void update_discriminators(IterationStats& st) {
+    const Index n = buf_.size(), B = cfg_.rl.disc.batch_size, half = B / 2;
+    const Index steps = std::max<Index>(1, cfg_.rl.disc.epochs * n / B);
+    double sum_real = 0, sum_fake = 0, sum_loss = 0;
+    int count = 0;
+    MatrixXf real_w, real_c, real_f, agent_w, feat, cond, fake, neg_w, neg_c, neg_f, stacked, rep;
+    std::vector<PartMask> ms(static_cast<std::size_t>(B - half));
+    for (std::size_t k = 0; k < setup_.discriminators.size(); ++k) {
+      const auto& src = setup_.discriminators[k];
+      auto& d = discs_.members[k];
+      const Index F = d.config().feature_dim, C = d.config().cond_dim;
+      const Index n_neg = (src.conditioned && src.negative) ? static_cast<Index>(setup_.negative_fraction * static_cast<double>(B)) : 0;
+      for (Index s = 0; s < steps; ++s) {
+        src.real(rng_, B, real_w, real_c);
+        std::vector<PartMask> none;
+        if (src.rows.empty()) real_f = real_w;
+        else tasks::select_rows(real_w, src.rows, real_f);
+        // fresh agent windows with their masks
+        agent_w.resize(buf_.amp_windows.rows(), B - half);
+        for (Index j = 0; j < B - half; ++j) {
+          const auto c = static_cast<Index>(rng_.uniform_int(static_cast<std::uint64_t>(n)));
+          agent_w.col(j) = buf_.amp_windows.col(c);
+          ms[static_cast<std::size_t>(j)] = buf_.masks[static_cast<std::size_t>(c)];
+        }
+        member_inputs(k, agent_w, ms, feat, cond);
+        stacked.resize(F + C, B - half);
+        stacked.topRows(F) = feat;
+        if (C > 0) stacked.bottomRows(C) = cond;
+        rl::mix_with_replay<float>(stacked, replays_[k], half, rng_, fake);
+        if (n_neg > 0) {
+          src.negative(rng_, n_neg, neg_w, neg_c);
+          if (src.rows.empty()) neg_f = neg_w;
+          else tasks::select_rows(neg_w, src.rows, neg_f);
+          const Index keep = std::max<Index>(1, fake.cols() - n_neg);
+          fake.conservativeResize(F + C, keep + n_neg);
+          fake.block(0, keep, F, n_neg) = neg_f;
+          fake.block(F, keep, C, n_neg) = neg_c;
+        }
+        if (s == 0) {
+          d.update_normalizer(real_f);
+          d.update_normalizer(feat);
+        }
+        const auto ds = d.update(real_f, src.conditioned ? MatrixXf(real_c) : MatrixXf(0, B), fake.topRows(F),
+                                 C > 0 ? MatrixXf(fake.bottomRows(C)) : MatrixXf(0, fake.cols()));
+        if (ds.skipped) ++st.skipped_updates;
+        sum_real += ds.real_mean;
+        sum_fake += ds.fake_mean;
+        sum_loss += ds.loss;
+        ++count;
+      }
+    }
+    if (count > 0) {
+      st.disc_real = sum_real / count;
+      st.disc_fake = sum_fake / count;
+      st.disc_loss = sum_loss / count;
+    }
+  }
+
+  ResidualTrainConfig cfg_;
+  ResidualSetup setup_;
+  tasks::ImitationTask<Sim> task_;
+  PartElements part_elements_;
+  Rng rng_;
+  tasks::EpisodeMasks masks_;
+  adapt::ResidualPolicy<float> policy_;
+  rl::Critic<float> critic_;
+  nn::PopArt<float> popart_;
+  rl::DiscriminatorSet<float> discs_;
+  std::vector<rl::ReplayBuffer<float>> replays_;
+  std::vector<double> weights_;
+  Index K_ = 1;
+  nn::Adam<float> actor_opt_, critic_opt_;
+  rl::RolloutBuffer<float> buf_;
+  long long iteration_ = 0, samples_ = 0;
+  double last_tracking_reward_ = NAN;
+  // tracking
+  std::vector<int> bodies_;
+  tracking::GoalBuffer goals_;
+  std::vector<std::size_t> goal_index_, goal_frame_;
+  tracking::WindowedTermination term_;
+  std::vector<float> last_track_;
+  RowVectorXf track_rewards_;
+  // workspaces
+  adapt::ResidualWorkspace<float> ws_;
+  adapt::ResidualTrainCache<float> cache_;
+  nn::InferenceWorkspace<float> critic_ws_;
+  nn::TrainCache<float> critic_cache_;
+  MatrixXf actions_, mu_, scratch_;
+  RowVectorXf logp_;
+};
+
+}  // namespace maskadapt::train

@@ -1,0 +1,59 @@
+#pragma once
+/// \file run_loop.hpp
+/// The outer loop of a training run: iteration/minute budget, JSONL log, progress line,
+/// periodic + final checkpoints in `run.out_dir`.
+#include <maskadapt/core/checkpoint.hpp>
+#include <maskadapt/train/base_trainer.hpp>
+#include <maskadapt/train/config.hpp>
+#include <maskadapt/train/progress.hpp>
+
+#include <filesystem>
+#include <iostream>
+#include <string>
+
+namespace maskadapt::train {
+
+struct RunOptions {
+  bool append_log = false;       ///< continue an existing log.jsonl (resume)
+  std::ostream* progress = &std::cout;  ///< nullptr: silent
+};
+
+/// Trains until `cfg.run.iterations` total iterations (counting those already done by a resumed
+/// trainer) or `cfg.run.minutes` of wall time, whichever comes first. Writes
+/// `<out>/config.json`, `<out>/log.jsonl`, `<out>/checkpoint.bin` (every checkpoint_every
+/// iterations and at the end) and `<out>/checkpoint_<it>.bin` copies. Returns the last stats.
+template <class Trainer>
+IterationStats run_training(Trainer& trainer, const RunOptions& opt = {}) {
+  const BaseTrainConfig& cfg = trainer.config();
+  namespace fs = std::filesystem;
+  const fs::path out = cfg.run.out_dir;
+  fs::create_directories(out);
+  save_config(cfg, (out / "config.json").string());
+  JsonlLog log((out / "log.jsonl").string(), opt.append_log);
+  Stopwatch clock;
+  const double budget_s = cfg.run.minutes > 0 ? 60.0 * cfg.run.minutes : 0.0;
+  const long long start_it = trainer.iteration();
+  IterationStats st;
+  auto checkpoint = [&](bool keep_copy) {
+    trainer.save((out / "checkpoint.bin").string());
+    if (keep_copy) trainer.save((out / ("checkpoint_" + std::to_string(trainer.iteration()) + ".bin")).string());
+  };
+  while (true) {
+    if (cfg.run.iterations > 0 && trainer.iteration() >= cfg.run.iterations) break;
+    if (budget_s > 0 && clock.seconds() >= budget_s) break;
+    st = trainer.iterate();
+    st.elapsed_s = clock.seconds();
+    const double per_it = st.elapsed_s / static_cast<double>(trainer.iteration() - start_it);
+    double eta = NAN;
+    if (cfg.run.iterations > 0) eta = per_it * static_cast<double>(cfg.run.iterations - trainer.iteration());
+    if (budget_s > 0) eta = std::isfinite(eta) ? std::min(eta, budget_s - st.elapsed_s) : budget_s - st.elapsed_s;
+    st.eta_s = eta;
+    log.write(to_json(st));
+    if (opt.progress) *opt.progress << format_progress(st, cfg.run.iterations) << std::endl;
+    if (trainer.iteration() % cfg.run.checkpoint_every == 0) checkpoint(true);
+  }
+  checkpoint(false);
+  return st;
+}
+
+}  // namespace maskadapt::train
