@@ -6,6 +6,7 @@
 #include <maskadapt/humanoid/observation.hpp>
 #include <maskadapt/mask/apply.hpp>
 #include <maskadapt/mask/sampler.hpp>
+#include <maskadapt/sim/observe.hpp>
 #include <maskadapt/sim/termination.hpp>
 
 #include <gtest/gtest.h>
@@ -32,9 +33,7 @@ Skeleton small_chain() {
 /// Generic code written only against the concept: observations + masked policy inputs of all envs.
 template <Simulator S>
 MatrixXf observe_masked(const S& sim, std::span<const PartMask> masks) {
-  const Index dim = observation_dim(sim.skeleton());
-  MatrixXf obs(dim, static_cast<Index>(sim.num_envs()));
-  for (std::size_t e = 0; e < sim.num_envs(); ++e) compute_observation(sim.skeleton(), sim.body_states(e), obs.col(static_cast<Index>(e)));
+  const MatrixXf obs = compute_observations(sim);
   const PartElements pe(observation_parts(sim.skeleton()));
   return policy_input<float>(pe, obs, masks);
 }
@@ -95,6 +94,23 @@ TEST(PointMassChain, WorksWithTheHumanoidSkeletonAndFallDetection) {
   sim.reset(0, lying);
   EXPECT_TRUE(has_fallen(c, sim.body_states(0), sim.contacts(0)));
   EXPECT_EQ(fallen_envs(sim, c), std::vector<std::uint8_t>{1});
+}
+
+TEST(PointMassChain, BatchObservationsMatchPerEnvAndAnyThreadCount) {
+  PointMassChainSim sim(small_chain(), 5);
+  Rng r(4);
+  for (std::size_t e = 0; e < 5; ++e) {
+    KinematicState st = KinematicState::zero(sim.skeleton());
+    st.root_rot = Quat(Eigen::AngleAxisd(r.uniform(-3, 3), Vec3::UnitZ()));
+    for (Index k = 0; k < st.q.size(); ++k) st.q[k] = r.uniform(-1, 1);
+    sim.reset(e, st);
+  }
+  ThreadPool pool(2);
+  const MatrixXf a = compute_observations(sim), b = compute_observations(sim, &pool);
+  EXPECT_TRUE((a.array() == b.array()).all());
+  EXPECT_EQ(a.col(3), compute_observation(sim.skeleton(), sim.body_states(3)));
+  MatrixXf wrong(a.rows(), 4);
+  EXPECT_THROW(compute_observations(sim, wrong), Error);
 }
 
 TEST(PointMassChain, RejectsBadTargetsAndPoses) {
