@@ -105,7 +105,7 @@ for (const [i, slot] of slots.entries()) {
     openRolloutFile(i, e.dataTransfer.files[0]);
   });
 }
-// Dropping a second file anywhere outside view A opens it as B.
+// Let drops that miss a view do nothing (instead of the browser opening the file).
 $('views').addEventListener('dragover', (e) => e.preventDefault());
 
 playBtn.addEventListener('click', () => {
