@@ -1,0 +1,272 @@
+// Residual policy: zero-init equivalence with the base, masked-DoF restriction, the null mask,
+// gradients vs finite differences; the mask-conditioned discriminator's inputs (blends,
+// negative experts, conditioning).
+#include <maskadapt/adapt/residual_policy.hpp>
+#include <maskadapt/humanoid/description.hpp>
+#include <maskadapt/humanoid/observation.hpp>
+#include <maskadapt/motion/synthetic.hpp>
+#include <maskadapt/rl/discriminator.hpp>
+#include <maskadapt/tasks/composition.hpp>
+
+#include <gtest/gtest.h>
+
+using namespace maskadapt;
+using RowVectorXf = RowVectorX<float>;
+
+namespace {
+
+constexpr Index kObs = 12, kAct = 9;
+// 4 bodies' worth of DoFs: trunk (3), left arm (3), left leg (3)
+std::vector<BodyPart> dof_parts() {
+  return {BodyPart::Trunk, BodyPart::Trunk, BodyPart::Trunk, BodyPart::LeftArm, BodyPart::LeftArm, BodyPart::LeftArm,
+          BodyPart::LeftLeg, BodyPart::LeftLeg, BodyPart::LeftLeg};
+}
+std::vector<BodyPart> obs_parts() {
+  std::vector<BodyPart> p;
+  for (Index i = 0; i < kObs; ++i) p.push_back(i < 4 ? BodyPart::Trunk : i < 8 ? BodyPart::LeftArm : BodyPart::LeftLeg);
+  return p;
+}
+
+rl::GaussianActor<float> make_base(Rng& rng) {
+  rl::ActorCriticConfig c;
+  c.policy_input_dim = kObs + kNumParts;
+  c.critic_input_dim = kObs;
+  c.action_dim = kAct;
+  c.actor_hidden = {16, 8};
+  c.init_log_std = -1.3;
+  rl::GaussianActor<float> a(c, rng);
+  MatrixXf warm = MatrixXf::Random(kObs + kNumParts, 64) * 2.0f;
+  a.normalizer.update(warm);
+  return a;
+}
+
+adapt::ResidualPolicy<float> make_policy(adapt::GainMode g = adapt::GainMode::PerDof, Index goal_dim = 0,
+                                         nn::Activation act = nn::Activation::ReLU) {
+  Rng rng(3);
+  adapt::ResidualConfig rc;
+  rc.activation = act;
+  rc.hidden = {16};
+  rc.gain = g;
+  rc.goal_dim = goal_dim;
+  return adapt::ResidualPolicy<float>(make_base(rng), kObs, dof_parts(), rc, rng);
+}
+
+}  // namespace
+
+TEST(ResidualPolicy, ZeroInitCompositeEqualsBaseExactly) {
+  const auto pol = make_policy();
+  const PartElements pe(obs_parts());
+  const MatrixXf obs = MatrixXf::Random(kObs, 6);
+  const std::vector<PartMask> masks = {PartMask::none(), PartMask::of(BodyPart::LeftArm), PartMask::parse("left_leg,trunk"),
+                                       PartMask::all(), PartMask::of(BodyPart::RightArm), PartMask::of(BodyPart::LeftLeg)};
+  adapt::ResidualWorkspace<float> ws;
+  MatrixXf x, mu, act;
+  RowVectorXf lp;
+  pol.build_input(pe, obs, masks, MatrixXf(), x, ws);
+  Rng r1(11), r2(11);
+  pol.act(x, masks, r1, act, lp, mu, ws);
+  // the base on its masked input, sampled from the same stream
+  const MatrixXf base_in = policy_input<float>(pe, obs, masks);
+  MatrixXf base_act, base_mu, scratch;
+  RowVectorXf base_lp;
+  nn::InferenceWorkspace<float> bws;
+  pol.base().act(base_in, r2, base_act, base_lp, base_mu, bws, scratch);
+  EXPECT_TRUE((mu.array() == base_mu.array()).all());
+  EXPECT_TRUE((act.array() == base_act.array()).all());
+  // the residual input carries the base action and the mask bits
+  EXPECT_TRUE((x.middleRows(kObs, kAct).array() == base_mu.array()).all());
+  EXPECT_EQ(x(kObs + kAct + 1, 1), 1.0f);  // left arm bit of column 1
+  EXPECT_EQ(x(kObs + kAct + 1, 0), 0.0f);
+}
+
+TEST(ResidualPolicy, ResidualMovesOnlyMaskedDofsAndNullMaskIsTheBase) {
+  auto pol = make_policy();
+  pol.residual().mean_net.params().setRandom();  // a trained, non-zero residual
+  pol.gain().params().setConstant(1.7f);
+  const PartElements pe(obs_parts());
+  const MatrixXf obs = MatrixXf::Random(kObs, 3);
+  const std::vector<PartMask> masks = {PartMask::none(), PartMask::of(BodyPart::LeftArm), PartMask::of(BodyPart::RightArm)};
+  adapt::ResidualWorkspace<float> ws;
+  MatrixXf x, mu, act;
+  RowVectorXf lp;
+  pol.build_input(pe, obs, masks, MatrixXf(), x, ws);
+  pol.mean(x, masks, mu, ws);
+  const MatrixXf base_mu = x.middleRows(kObs, kAct);
+  // null mask / a part with no DoFs here: exactly the base, and log-prob 0 (no gradient)
+  EXPECT_TRUE((mu.col(0).array() == base_mu.col(0).array()).all());
+  EXPECT_TRUE((mu.col(2).array() == base_mu.col(2).array()).all());
+  Rng r(5);
+  pol.act(x, masks, r, act, lp, mu, ws);
+  EXPECT_EQ(lp[0], 0.0f);
+  EXPECT_EQ(lp[2], 0.0f);
+  EXPECT_NE(lp[1], 0.0f);
+  // left arm: only DoFs 3..5 differ from the base
+  for (Index i = 0; i < kAct; ++i) {
+    if (i >= 3 && i < 6) EXPECT_NE(mu(i, 1), base_mu(i, 1)) << i;
+    else EXPECT_EQ(mu(i, 1), base_mu(i, 1)) << i;
+  }
+}
+
+TEST(ResidualPolicy, GradientsMatchFiniteDifferences) {
+  for (auto mode : {adapt::GainMode::Scalar, adapt::GainMode::PerDof}) {
+    auto pol = make_policy(mode, 0, nn::Activation::Tanh);  // smooth, so central differences apply
+    pol.residual().mean_net.params().setRandom();
+    pol.residual().mean_net.params() *= 0.3f;
+    const PartElements pe(obs_parts());
+    const MatrixXf obs = MatrixXf::Random(kObs, 4);
+    const std::vector<PartMask> masks = {PartMask::of(BodyPart::LeftArm), PartMask::all(), PartMask::none(),
+                                         PartMask::of(BodyPart::LeftLeg)};
+    adapt::ResidualWorkspace<float> ws;
+    MatrixXf x;
+    pol.build_input(pe, obs, masks, MatrixXf(), x, ws);
+    const MatrixXf actions = MatrixXf::Random(kAct, 4);
+    const RowVectorXf dlogp = RowVectorXf::Random(4);
+    auto loss = [&](adapt::ResidualPolicy<float>& p) {
+      adapt::ResidualTrainCache<float> c;
+      p.forward_train(x, masks, c);
+      RowVectorXf lp;
+      p.log_prob(c, actions, lp);
+      return static_cast<double>(lp.dot(dlogp));
+    };
+    adapt::ResidualTrainCache<float> c;
+    pol.zero_grad();
+    pol.forward_train(x, masks, c);
+    MatrixXf dmu;
+    adapt::ResidualPolicy<float>::log_prob_mean_grad(c, actions, dlogp, dmu);
+    pol.backward(c, dmu);
+    const float h = 2e-3f;
+    for (Index i = 0; i < pol.gain().params().size(); ++i) {
+      const float w0 = pol.gain().params()[i];
+      pol.gain().params()[i] = w0 + h;
+      const double lp = loss(pol);
+      pol.gain().params()[i] = w0 - h;
+      const double lm = loss(pol);
+      pol.gain().params()[i] = w0;
+      EXPECT_NEAR(pol.gain().grads()[i], (lp - lm) / (2 * h), 2e-2 * (1 + std::abs((lp - lm) / (2 * h)))) << i;
+    }
+    auto p = pol.residual().mean_net.params();
+    for (Index i = 0; i < p.size(); i += 7) {
+      const float w0 = p[i];
+      p[i] = w0 + h;
+      const double lp = loss(pol);
+      p[i] = w0 - h;
+      const double lm = loss(pol);
+      p[i] = w0;
+      EXPECT_NEAR(pol.residual().mean_net.grads()[i], (lp - lm) / (2 * h), 2e-2 * (1 + std::abs((lp - lm) / (2 * h)))) << i;
+    }
+  }
+}
+
+TEST(ResidualPolicy, RejectsWrongShapes) {
+  const auto pol = make_policy(adapt::GainMode::Scalar, 4);
+  const PartElements pe(obs_parts());
+  adapt::ResidualWorkspace<float> ws;
+  MatrixXf x;
+  const std::vector<PartMask> masks(2);
+  EXPECT_THROW(pol.build_input(pe, MatrixXf::Zero(kObs + 1, 2), masks, MatrixXf::Zero(4, 2), x, ws), Error);
+  EXPECT_THROW(pol.build_input(pe, MatrixXf::Zero(kObs, 2), masks, MatrixXf::Zero(3, 2), x, ws), Error);
+  EXPECT_NO_THROW(pol.build_input(pe, MatrixXf::Zero(kObs, 2), masks, MatrixXf::Zero(4, 2), x, ws));
+  EXPECT_EQ(x.rows(), kObs + kAct + kNumParts + 4);
+  Rng rng(1);
+  EXPECT_THROW(adapt::ResidualPolicy<float>(make_base(rng), kObs + 1, dof_parts(), {}, rng), Error);
+}
+
+TEST(ResidualPolicy, CheckpointRoundTrip) {
+  auto a = make_policy();
+  a.residual().mean_net.params().setRandom();
+  a.gain().params().setRandom();
+  Checkpoint ck;
+  a.save(ck);
+  auto b = make_policy();
+  b.load(ck);
+  EXPECT_EQ(a.residual().mean_net.params(), b.residual().mean_net.params());
+  EXPECT_EQ(a.gain().params(), b.gain().params());
+}
+
+// ---- composition data ----------------------------------------------------------------------
+
+TEST(Composition, BlendedRealSamplesTakeBOnMaskedPartsAndAElsewhere) {
+  const Skeleton& skel = humanoid_skeleton();
+  MotionLibrary a(skel), b(skel);
+  a.add(synthetic_walk());
+  b.add(synthetic_kick());
+  const PartMask lower = PartMask::parse("lower_body");
+  const tasks::BlendedMotionSet set(a, b, {lower, PartMask::parse("arms")});
+  const MotionClip& bl = set.library(0).clip(0);
+  ASSERT_EQ(bl.num_frames(), a.clip(0).num_frames());
+  const int T = std::min(bl.num_frames(), b.clip(0).num_frames());
+  for (int t = 0; t < T; ++t)
+    for (int body = 1; body < skel.num_bodies(); ++body) {
+      const int k = Skeleton::dof_offset(body);
+      const Vec3 want = lower.has(skel.parts[static_cast<std::size_t>(body)]) ? Vec3(b.clip(0).q.col(t).segment<3>(k))
+                                                                               : Vec3(a.clip(0).q.col(t).segment<3>(k));
+      EXPECT_EQ(Vec3(bl.q.col(t).segment<3>(k)), want) << "frame " << t << " body " << body;
+    }
+  EXPECT_EQ(bl.root_pos, a.clip(0).root_pos);
+  // real samples carry their mask's bits; negatives never do
+  Rng rng(4);
+  MatrixXf w, c;
+  std::vector<PartMask> ms;
+  set.sample_real(rng, 16, w, c, &ms);
+  ASSERT_EQ(w.rows(), set.window_dim());
+  for (Index j = 0; j < 16; ++j) EXPECT_EQ(c.col(j), tasks::mask_bits({ms[static_cast<std::size_t>(j)]}).col(0));
+  const tasks::BlendedMotionSet one(a, b, {lower});
+  one.sample_negative(rng, 32, w, c);
+  const VectorXf lower_bits = tasks::mask_bits({lower}).col(0);
+  for (Index j = 0; j < 32; ++j) EXPECT_NE(c.col(j), lower_bits);
+}
+
+TEST(Composition, WindowRowsSelectExactlyThePartsElements) {
+  const auto parts = obs_parts();
+  const auto rows = tasks::window_rows(parts, PartMask::of(BodyPart::LeftArm), 2);
+  EXPECT_EQ(rows, (std::vector<Index>{4, 5, 6, 7, 16, 17, 18, 19}));
+  MatrixXf x = MatrixXf::Random(2 * kObs, 3), out;
+  tasks::select_rows(x, rows, out);
+  EXPECT_EQ(out.row(5), x.row(17));
+}
+
+TEST(Composition, EpisodeMasksDrawFromTheSetAndSwitch) {
+  const std::vector<PartMask> set = {PartMask::parse("lower_body"), PartMask::parse("arms")};
+  tasks::EpisodeMasks fixed(set, 8, 0.0, 1.0 / 30, 1);
+  for (int s = 0; s < 100; ++s)
+    for (Index e = 0; e < 8; ++e) {
+      const PartMask before = fixed.masks()[static_cast<std::size_t>(e)];
+      fixed.maybe_switch(e);
+      EXPECT_EQ(fixed.masks()[static_cast<std::size_t>(e)], before);
+    }
+  tasks::EpisodeMasks sw(set, 8, 3.0, 1.0 / 30, 1);  // ~ every 10 steps
+  int switches = 0;
+  for (int s = 0; s < 300; ++s)
+    for (Index e = 0; e < 8; ++e) {
+      const PartMask before = sw.masks()[static_cast<std::size_t>(e)];
+      sw.maybe_switch(e);
+      const PartMask after = sw.masks()[static_cast<std::size_t>(e)];
+      EXPECT_TRUE(after == set[0] || after == set[1]);
+      switches += after != before;
+    }
+  EXPECT_GT(switches, 150);  // expectation 240
+  EXPECT_LT(switches, 330);
+  EXPECT_THROW(tasks::parse_mask_set({"none"}), Error);
+}
+
+TEST(Composition, ConditioningChangesTheDiscriminatorOutput) {
+  Rng rng(9);
+  rl::DiscriminatorConfig dc;
+  dc.feature_dim = 10;
+  dc.cond_dim = kNumParts;
+  dc.hidden = {16, 16};
+  rl::Discriminator<float> d(dc, rng);
+  const MatrixXf x = MatrixXf::Random(10, 1).replicate(1, 3);
+  const MatrixXf c = tasks::mask_bits({PartMask::parse("lower_body"), PartMask::parse("arms"), PartMask::parse("lower_body")});
+  const RowVectorXf l = d.logits(x, c);
+  EXPECT_NE(l[0], l[1]);
+  EXPECT_EQ(l[0], l[2]);
+  // after training on blends vs the same windows with a mismatched mask, D prefers the true mask
+  dc.lr = 3e-3;
+  rl::Discriminator<float> t(dc, rng);
+  const MatrixXf feats = MatrixXf::Random(10, 64);
+  const MatrixXf real_c = tasks::mask_bits(std::vector<PartMask>(64, PartMask::parse("lower_body")));
+  const MatrixXf fake_c = tasks::mask_bits(std::vector<PartMask>(64, PartMask::parse("arms")));
+  for (int i = 0; i < 200; ++i) t.update(feats, real_c, feats, fake_c);
+  EXPECT_GT(t.logits(feats, real_c).mean(), t.logits(feats, fake_c).mean() + 1.0f);
+}
