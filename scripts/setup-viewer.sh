@@ -5,8 +5,25 @@
 #
 #   scripts/setup-viewer.sh            # npm ci + npm run build
 #   scripts/setup-viewer.sh --test     # also run the unit tests (vitest)
+#   scripts/setup-viewer.sh --with-chromium   # also apt-get install Debian's chromium (e2e test)
 set -euo pipefail
 cd "$(dirname "$0")/../tools/viewer"
+
+run_tests=0
+with_chromium=0
+for arg in "$@"; do
+  case "$arg" in
+    --test) run_tests=1 ;;
+    --with-chromium) with_chromium=1 ;;
+    *) echo "setup-viewer.sh: unknown option '$arg'" >&2; exit 2 ;;
+  esac
+done
+if [[ "$with_chromium" == 1 && ! -x /usr/bin/chromium ]]; then
+  sudo_cmd=""
+  [ "$(id -u)" -ne 0 ] && sudo_cmd="sudo"
+  $sudo_cmd apt-get update
+  DEBIAN_FRONTEND=noninteractive $sudo_cmd apt-get install -y chromium nodejs npm
+fi
 
 if ! command -v npm >/dev/null 2>&1; then
   echo "setup-viewer: npm not found (install Node.js >= 20, e.g. apt-get install nodejs npm)" >&2
@@ -23,7 +40,7 @@ if ! npm ci --no-audit --no-fund; then
   npm install --no-save --no-audit --no-fund
 fi
 npm run build
-if [[ "${1:-}" == "--test" ]]; then
+if [[ "$run_tests" == 1 ]]; then
   npm test
 fi
 if [[ ! -x /usr/bin/chromium ]]; then
