@@ -22,7 +22,7 @@ if [[ "$with_chromium" == 1 && ! -x /usr/bin/chromium ]]; then
   sudo_cmd=""
   [ "$(id -u)" -ne 0 ] && sudo_cmd="sudo"
   $sudo_cmd apt-get update
-  DEBIAN_FRONTEND=noninteractive $sudo_cmd apt-get install -y chromium nodejs npm
+  DEBIAN_FRONTEND=noninteractive $sudo_cmd apt-get install -y chromium
 fi
 
 if ! command -v npm >/dev/null 2>&1; then
