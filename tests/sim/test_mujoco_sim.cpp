@@ -7,6 +7,7 @@
 
 #include <cstdio>
 #include <filesystem>
+#include <iostream>
 
 using namespace maskadapt;
 
@@ -148,4 +149,26 @@ TEST(MujocoHumanoidSim, ResetPlacesTheRequestedState) {
   EXPECT_LT((sim.body_states(0).pos.col(0) - pose.root_pos).norm(), 1e-12);
   EXPECT_LT((sim.body_states(0).ang_vel.col(0) - Vec3(0, 0, 2.0)).norm(), 1e-9);
   EXPECT_TRUE(std::all_of(sim.contacts(0).begin(), sim.contacts(0).end(), [](auto c) { return c == 0; }));  // airborne
+}
+
+TEST(MujocoHumanoidSim, ToppledHumanoidIsDetectedAsFallen) {
+  MujocoHumanoidSim sim(2);
+  KinematicState pushed = humanoid_standing_pose();
+  pushed.root_lin_vel = Vec3(0, 2.5, 0);   // shoved sideways…
+  pushed.root_ang_vel = Vec3(-3.0, 0, 0);  // …and tipping over to the left
+  sim.reset(1, pushed);
+  const FallCriteria c = FallCriteria::for_skeleton(sim.skeleton());
+  const MatrixXf hold = MatrixXf::Zero(63, 2);
+  int fell_at = -1;
+  for (int k = 0; k < 90 && fell_at < 0; ++k) {
+    sim.step(hold);
+    if (fallen_envs(sim, c) == std::vector<std::uint8_t>{0, 1}) fell_at = k;
+    ASSERT_FALSE(has_fallen(c, sim.body_states(0), sim.contacts(0)));  // env 0 stands
+  }
+  ASSERT_GE(fell_at, 0) << "the shoved humanoid did not fall within 3 s";
+  std::cout << "fell after " << (fell_at + 1) * sim.control_dt() << " s\n";
+  // Fallen because something other than feet/hands touches the floor, or the head is low.
+  bool forbidden_contact = false;
+  for (int i = 0; i < 22; ++i) forbidden_contact |= sim.contacts(1)[static_cast<std::size_t>(i)] && !c.contact_allowed[static_cast<std::size_t>(i)];
+  EXPECT_TRUE(forbidden_contact || sim.body_states(1).pos(2, hb::Head) < c.min_head_height);
 }
