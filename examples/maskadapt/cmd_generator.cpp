@@ -5,10 +5,12 @@
 #include <maskadapt/humanoid/description.hpp>
 #include <maskadapt/motion/bvh.hpp>
 #include <maskadapt/motion/retarget.hpp>
+#include <maskadapt/motion/synthetic.hpp>
 #include <maskadapt/tracking/builtin_generator.hpp>
 #include <maskadapt/tracking/text_pool.hpp>
 
 #include <cstdlib>
+#include <filesystem>
 #include <iostream>
 #include <memory>
 
@@ -41,8 +43,13 @@ void run_train(const TrainOptions& o) {
   const Skeleton& skel = humanoid_skeleton();
   const std::string dir = o.data.empty() ? default_data_dir() : o.data;
   std::vector<std::string> skipped;
-  const auto clips = load_labelled_clips(dir, skel, &skipped);
+  // Real clips from the data directory when it exists, plus the built-in synthetic clips (walk,
+  // rotate arms, kick, jump) with their labels, so a fresh machine can train too.
+  std::vector<LabelledTrajectory> clips;
+  if (std::filesystem::is_directory(dir)) clips = load_labelled_clips(dir, skel, &skipped);
+  else std::cerr << "no clip directory at " << dir << "; training on the built-in synthetic clips only\n";
   for (const auto& s : skipped) std::cerr << "skipped " << s << "\n";
+  for (const MotionClip& c : builtin_motion_set("synthetic")) clips.push_back(labelled_from_clip(c, skel));
   require(!clips.empty(), "no motion clips found", {dir, {}, "--data"});
   const auto data = make_primitive_dataset(skel, clips, 5, 15, o.stride);
   std::cout << "clips: " << clips.size() << ", windows: " << data.size() << " (H = 5, F = 15, stride " << o.stride
