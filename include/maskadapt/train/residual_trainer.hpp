@@ -41,7 +41,6 @@
 #include <maskadapt/tasks/composition.hpp>
 #include <maskadapt/tasks/imitation.hpp>
 #include <maskadapt/tracking/goals.hpp>
-#include <maskadapt/train/base_trainer.hpp>
 #include <maskadapt/train/config.hpp>
 #include <maskadapt/train/progress.hpp>
 
@@ -53,6 +52,8 @@
 #include <vector>
 
 namespace maskadapt::train {
+
+using RowVectorXf = RowVectorX<float>;
 
 /// Stage-2 settings; `rl` carries run / env / ppo / disc / net sections of the stage-1 format
 /// (env.motions = the base motion set A; net.critic_hidden / disc_hidden size the new critic and
@@ -143,6 +144,15 @@ inline ResidualTrainConfig residual_config_from_json(const nlohmann::json& j, co
   return c;
 }
 
+/// Activation by config name (relu | elu | silu | tanh).
+inline nn::Activation residual_activation(const std::string& name) {
+  if (name == "relu") return nn::Activation::ReLU;
+  if (name == "elu") return nn::Activation::ELU;
+  if (name == "silu") return nn::Activation::SiLU;
+  if (name == "tanh") return nn::Activation::Tanh;
+  throw Error("unknown activation '" + name + "'", {{}, std::nullopt, "net.activation"});
+}
+
 inline void save_norm(Checkpoint& c, const std::string& name, const nn::RunningNormalizer<float>& n) {
   c.put_double(name + "/count", n.count());
   c.put(name + "/mean", n.mean());
@@ -161,7 +171,7 @@ inline rl::GaussianActor<float> load_base_actor(const Checkpoint& ck, Index obs_
   ac.critic_input_dim = obs_dim;
   ac.action_dim = action_dim;
   ac.actor_hidden = bc.net.actor_hidden;
-  ac.activation = activation_from_name(bc.net.activation);
+  ac.activation = residual_activation(bc.net.activation);
   ac.init_log_std = bc.net.init_log_std;
   Rng dummy(0);
   rl::GaussianActor<float> a(ac, dummy);
@@ -219,7 +229,7 @@ class ResidualTrainer {
     Rng init = Rng::stream(cfg_.rl.run.seed, 0x2E51ULL);
     adapt::ResidualConfig rc;
     rc.hidden = cfg_.residual_hidden;
-    rc.activation = activation_from_name(cfg_.rl.net.activation);
+    rc.activation = residual_activation(cfg_.rl.net.activation);
     rc.gain = adapt::gain_mode_from_name(cfg_.gain);
     rc.init_gain = cfg_.init_gain;
     if (setup_.tracking) {
@@ -362,7 +372,11 @@ class ResidualTrainer {
 
  private:
   static tasks::ImitationTaskConfig no_mask_task(const BaseTrainConfig& c, std::optional<FallCriteria> fall) {
-    tasks::ImitationTaskConfig t = task_config(c, std::move(fall));
+    tasks::ImitationTaskConfig t;
+    t.fall = std::move(fall);
+    t.episode_seconds = c.env.episode_seconds;
+    t.early_termination = c.env.early_termination;
+    t.min_head_height = c.env.termination_height;
     t.masking = false;  // masks are the residual's (EpisodeMasks), not the task's
     return t;
   }
