@@ -212,16 +212,23 @@ inline Array parse_npy(std::string_view blob, const ErrorContext& ctx) {
       count *= d;
     }
   }
-  if (a.descr.size() < 3) throw Error("unsupported dtype '" + a.descr + "'", ctx);
+  // dtype "<f8": byte order, kind, item size; anything else (objects "|O", structured dtypes)
+  // is kept as an unsupported member that fails only when used
+  auto unsupported = [&] {
+    a.supported = false;
+    a.numeric = false;
+    return a;
+  };
+  if (a.descr.size() < 3) return unsupported();
   const char order = a.descr[0];
   const char kind = a.descr[1];
   std::size_t item = 0;
   for (std::size_t i = 2; i < a.descr.size(); ++i) {
-    if (a.descr[i] < '0' || a.descr[i] > '9' || item > 100000) throw Error("unsupported dtype '" + a.descr + "'", ctx);
+    if (a.descr[i] < '0' || a.descr[i] > '9' || item > 100000) return unsupported();
     item = item * 10 + std::size_t(a.descr[i] - '0');
   }
-  if (order != '<' && order != '>' && order != '|' && order != '=') throw Error("bad dtype byte order '" + a.descr + "'", ctx);
-  if (item == 0) throw Error("unsupported dtype '" + a.descr + "'", ctx);
+  if (order != '<' && order != '>' && order != '|' && order != '=') return unsupported();
+  if (item == 0) return unsupported();
   const std::size_t char_size = kind == 'U' ? 4 : 1;
   const std::size_t elem_bytes = item * ((kind == 'U') ? char_size : 1);
   if (count != 0 && elem_bytes > (std::size_t(1) << 40) / count) throw Error("npy array too large", ctx);

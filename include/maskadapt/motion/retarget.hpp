@@ -216,7 +216,7 @@ inline MotionClip finish(const HumanoidSequence& seq, const HumanoidDescription&
   require(T >= 1, "no frames to retarget", {file, std::nullopt, "frames"});
   require(opt.target_fps > 0, "target fps must be positive", {file, std::nullopt, "target_fps"});
   const double duration = (T - 1) / seq.fps;
-  const int Tout = static_cast<int>(std::floor(duration * opt.target_fps + 1e-9)) + 1;
+  const int Tout = static_cast<int>(std::floor(duration * opt.target_fps + 1e-3)) + 1;
   MotionClip clip;
   clip.fps = opt.target_fps;
   clip.resize(Tout, skel.num_dofs());
@@ -530,7 +530,11 @@ inline MotionClip import_motion(const std::string& path, const RetargetOptions& 
     if (ar.count("format")) {
       clip = clip_from_archive(ar, path);
       clip.validate(humanoid_skeleton(), path);
-      if (report) *report = RetargetReport{clip.num_frames(), clip.fps};
+      if (report) {
+        *report = RetargetReport{};
+        report->source_frames = clip.num_frames();
+        report->source_fps = clip.fps;
+      }
       return clip;
     }
     clip = retarget_amass(npz::amass_from_archive(ar, path), 'z', opt, report, humanoid_description(), path);

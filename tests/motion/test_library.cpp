@@ -1,0 +1,207 @@
+// MotionLibrary: interpolation and velocities against closed forms, looping with root offsets,
+// weighted sampling, AMP windows = compute_observation, visitation features, part-wise blends,
+// synthetic clips.
+#include <maskadapt/motion/blend.hpp>
+#include <maskadapt/motion/geometry.hpp>
+#include <maskadapt/motion/library.hpp>
+#include <maskadapt/motion/synthetic.hpp>
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <numbers>
+
+using namespace maskadapt;
+
+namespace {
+constexpr double kPi = std::numbers::pi;
+
+// Closed-form clip at 30 Hz: root moves at v along x and turns at w_yaw about z; the left knee
+// bends as A sin(2π f t) about its y hinge; everything else is still.
+constexpr double kV = 1.3, kYawRate = 0.4, kA = 0.5, kF = 1.0;
+MotionClip closed_form_clip() {
+  MotionClip c;
+  c.name = "closed_form";
+  c.fps = 30;
+  c.resize(61, humanoid_skeleton().num_dofs());
+  for (int t = 0; t < c.num_frames(); ++t) {
+    const double time = t / c.fps;
+    c.root_pos.col(t) = Vec3(kV * time, 0, 0.9);
+    c.set_rot(t, Quat(Eigen::AngleAxisd(kYawRate * time, Vec3::UnitZ())));
+    c.q(Skeleton::dof_offset(hb::LKnee) + 1, t) = kA * std::sin(2 * kPi * kF * time);
+  }
+  return c;
+}
+}  // namespace
+
+TEST(MotionLibrary, InterpolationAndVelocitiesMatchClosedForms) {
+  MotionLibrary lib;
+  lib.add(closed_form_clip());
+  const int knee = Skeleton::dof_offset(hb::LKnee) + 1;
+  const double h = 1.0 / 30, w = 2 * kPi * kF;
+  for (double t : {0.5 + 0.3 * h, 0.77, 1.2345, 1.5 + 0.5 * h}) {
+    SCOPED_TRACE(t);
+    const KinematicState s = lib.state(0, t);
+    EXPECT_NEAR((s.root_pos - Vec3(kV * t, 0, 0.9)).norm(), 0, 1e-12);
+    EXPECT_NEAR(s.root_rot.angularDistance(Quat(Eigen::AngleAxisd(kYawRate * t, Vec3::UnitZ()))), 0, 1e-12);
+    // slerp of single-axis rotations = lerp of the angle: error ≤ A w² h² / 8
+    EXPECT_NEAR(s.q[knee], kA * std::sin(w * t), kA * w * w * h * h / 8 + 1e-12);
+    EXPECT_NEAR((s.root_lin_vel - Vec3(kV, 0, 0)).norm(), 0, 1e-9);
+    EXPECT_NEAR((s.root_ang_vel - Vec3(0, 0, kYawRate)).norm(), 0, 1e-9);
+    // central difference over ±h of the interpolated angle: error ≈ A w³ h² / 6 (+ interpolation)
+    EXPECT_NEAR(s.qd[knee], kA * w * std::cos(w * t), kA * w * w * w * h * h / 6 + kA * w * w * h / 4);
+    for (Index k = 0; k < s.qd.size(); ++k) {
+      if (k != knee) EXPECT_EQ(s.qd[k], 0.0);
+    }
+  }
+  // at the clip's ends the differences are one-sided and stay finite
+  const KinematicState end = lib.state(0, lib.clip(0).duration());
+  EXPECT_NEAR(end.root_lin_vel.x(), kV, 1e-9);
+}
+
+TEST(MotionLibrary, BodyVelocitiesMatchFiniteDifferencesOfPositions) {
+  MotionLibrary lib;
+  lib.add(synthetic_walk());
+  // the library differentiates over ±h = one frame; body velocities (FK of q̇) must agree with
+  // the same central difference of body positions up to the curvature of the path (O(h²))
+  const double h = 1.0 / 30;
+  for (double t : {0.2, 0.41, 0.83}) {
+    const BodyStates b = lib.body_states(0, t), b1 = lib.body_states(0, t - h), b2 = lib.body_states(0, t + h);
+    for (int i = 0; i < b.num_bodies(); ++i) {
+      const Vec3 fd = (b2.pos.col(i) - b1.pos.col(i)) / (2 * h);
+      EXPECT_LT((b.lin_vel.col(i) - fd).norm(), 0.03 + 0.03 * fd.norm()) << t << " " << humanoid_skeleton().names[i];
+    }
+  }
+}
+
+TEST(MotionLibrary, LoopingAccumulatesTheRootOffset) {
+  MotionLibrary lib;
+  const MotionClip walk = synthetic_walk();
+  lib.add(walk);
+  const double P = walk.duration();
+  const Vec3 travel = walk.root_pos.col(walk.num_frames() - 1) - walk.root_pos.col(0);
+  ASSERT_GT(travel.x(), 0.5);
+  for (double tau : {0.0, 0.2, 0.55}) {
+    const KinematicState a = lib.state(0, tau), b = lib.state(0, tau + 2 * P);
+    EXPECT_LT((b.q - a.q).cwiseAbs().maxCoeff(), 1e-9);
+    EXPECT_NEAR(b.root_pos.x() - a.root_pos.x(), 2 * travel.x(), 1e-6);
+    EXPECT_NEAR(b.root_pos.z(), a.root_pos.z(), 1e-12);
+  }
+  // continuous across the cycle boundary
+  const KinematicState before = lib.state(0, P - 1e-6), after = lib.state(0, P + 1e-6);
+  EXPECT_LT((before.root_pos - after.root_pos).norm(), 1e-4);
+  EXPECT_LT((before.q - after.q).cwiseAbs().maxCoeff(), 1e-3);
+}
+
+TEST(MotionLibrary, WeightedAndUniformSampling) {
+  MotionLibrary lib;
+  lib.add(synthetic_walk(), 1.0);
+  lib.add(synthetic_jump(), 3.0);
+  Rng rng(7);
+  int count[2] = {0, 0};
+  const int n = 4000;
+  for (int i = 0; i < n; ++i) {
+    const ClipTime ct = lib.sample(rng);
+    ++count[ct.clip];
+    EXPECT_GE(ct.time, 0.0);
+    EXPECT_LE(ct.time, lib.clip(ct.clip).duration());
+  }
+  EXPECT_NEAR(count[1] / double(n), 0.75, 0.03);
+  count[0] = count[1] = 0;
+  for (int i = 0; i < n; ++i) ++count[lib.sample(rng, false).clip];
+  EXPECT_NEAR(count[1] / double(n), 0.5, 0.03);
+  // same seed → same samples
+  Rng r1(3), r2(3);
+  for (int i = 0; i < 10; ++i) EXPECT_EQ(lib.sample(r1).time, lib.sample(r2).time);
+  EXPECT_THROW(lib.add(synthetic_walk(), 0.0), Error);
+  MotionClip wrong = synthetic_walk();
+  wrong.q.conservativeResize(10, Eigen::NoChange);
+  EXPECT_THROW(lib.add(wrong), Error);
+}
+
+TEST(MotionLibrary, AmpWindowsAreObservationsOfFiveFrames) {
+  MotionLibrary lib;
+  lib.add(synthetic_kick());
+  const Index d = observation_dim(humanoid_skeleton());
+  ASSERT_EQ(d, kObservationDim);
+  VectorXf win(lib.amp_window_dim());
+  const double t = 1.0;
+  lib.amp_window(0, t, win);
+  for (int k = 0; k < kAmpWindowFrames; ++k) {
+    const VectorXf o = compute_observation(humanoid_skeleton(), lib.body_states(0, t - (4 - k) / 30.0));
+    EXPECT_EQ(win.segment(k * d, d), o) << k;
+  }
+  Rng rng(1);
+  const MatrixXf batch = lib.sample_amp_windows(rng, 8);
+  EXPECT_EQ(batch.rows(), 5 * kObservationDim);
+  EXPECT_EQ(batch.cols(), 8);
+  EXPECT_TRUE(batch.allFinite());
+  // reset states are finite and carry velocities
+  const KinematicState s = lib.reset_state(rng);
+  EXPECT_EQ(s.q.size(), humanoid_skeleton().num_dofs());
+  EXPECT_TRUE(s.qd.allFinite());
+}
+
+TEST(MotionLibrary, VisitationFeaturesSelectPartsAndIgnoreHeading) {
+  const Skeleton& s = humanoid_skeleton();
+  KinematicState st = synthetic_walk().frame(5);
+  const BodyStates b = forward_kinematics(s, st);
+  const VectorXf all = visitation_features(s, b);
+  EXPECT_EQ(all.size(), 3 * 21);
+  const VectorXf arm = visitation_features(s, b, PartMask::of(BodyPart::LeftArm));
+  EXPECT_EQ(arm.size(), 3 * 4);  // L_Thorax, L_Shoulder, L_Elbow, L_Wrist
+  EXPECT_EQ(arm.segment<3>(9), all.segment<3>(3 * (hb::LWrist - 1)));
+  // turning and moving the whole body leaves the features unchanged
+  st.root_rot = Quat(Eigen::AngleAxisd(1.1, Vec3::UnitZ())) * st.root_rot;
+  st.root_pos += Vec3(3, -4, 0);
+  const VectorXf turned = visitation_features(s, forward_kinematics(s, st));
+  EXPECT_LT((turned - all).cwiseAbs().maxCoeff(), 1e-5);
+}
+
+TEST(Blend, TakesBsJointsExactlyOnMaskedPartsAndAsElsewhere) {
+  const Skeleton& s = humanoid_skeleton();
+  const MotionClip a = synthetic_walk(), b = synthetic_arm_circles();
+  const PartMask mask = PartMask::of(BodyPart::LeftArm) | PartMask::of(BodyPart::RightArm);
+  const MotionClip m = blend_parts(a, b, mask, s);
+  ASSERT_EQ(m.num_frames(), a.num_frames());
+  EXPECT_EQ(m.root_pos, a.root_pos);
+  EXPECT_EQ(m.root_rot, a.root_rot);
+  for (int t = 0; t < m.num_frames(); ++t)
+    for (int body = 1; body < s.num_bodies(); ++body) {
+      const int k = Skeleton::dof_offset(body);
+      const Vec3 expect = mask.has(s.parts[body]) ? Vec3(b.q.col(t).segment<3>(k)) : Vec3(a.q.col(t).segment<3>(k));
+      EXPECT_EQ(Vec3(m.q.col(t).segment<3>(k)), expect) << t << " " << s.names[body];
+    }
+  // B shorter than A loops: the jump (not looping, 2.3 s) under a long A with loop_b
+  MotionClip longer = synthetic_walk();
+  longer = blend_parts(longer, synthetic_arm_circles(), mask, s, {.b_offset = 0.5});
+  const int k = Skeleton::dof_offset(hb::LShoulder);
+  const MotionClip arms = synthetic_arm_circles();
+  // A frame 3 ↔ B time 0.1 + 0.5 = 0.6 s = B frame 18
+  EXPECT_EQ(Vec3(longer.q.col(3).segment<3>(k)), Vec3(arms.q.col(18).segment<3>(k)));
+}
+
+TEST(Synthetic, ClipsAreGroundedValidAndLoop) {
+  const auto& d = humanoid_description();
+  for (const char* n : {"walk", "arms", "kick", "jump"}) {
+    SCOPED_TRACE(n);
+    const MotionClip c = synthetic_clip(n);
+    c.validate(d.skeleton);
+    EXPECT_FALSE(c.labels.empty());
+    double zmin = 1e9;
+    for (int t = 0; t < c.num_frames(); ++t) {
+      const BodyStates b = forward_kinematics(d.skeleton, c.frame(t));
+      for (int f : geometry::foot_bodies()) zmin = std::min(zmin, geometry::lowest_point(d, b, f));
+    }
+    EXPECT_NEAR(zmin, 0.0, 1e-9);
+    if (c.loop) {
+      EXPECT_LT((c.q.col(0) - c.q.col(c.num_frames() - 1)).cwiseAbs().maxCoeff(), 1e-6);
+    }
+  }
+  EXPECT_THROW(synthetic_clip("moonwalk"), Error);
+  const auto set = builtin_motion_set("synthetic");
+  EXPECT_EQ(set.size(), 4u);
+  const auto loco = builtin_motion_set("locomotion", "/nonexistent");
+  ASSERT_EQ(loco.size(), 1u);
+  EXPECT_EQ(loco[0].name, "synthetic_walk");
+}
