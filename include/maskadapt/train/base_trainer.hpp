@@ -28,11 +28,13 @@
 #include <maskadapt/nn/normalizer.hpp>
 #include <maskadapt/rl/actor_critic.hpp>
 #include <maskadapt/rl/amp_loss.hpp>
+#include <maskadapt/rl/discriminator.hpp>
 #include <maskadapt/rl/gae.hpp>
 #include <maskadapt/rl/ppo_loss.hpp>
 #include <maskadapt/rl/replay_buffer.hpp>
 #include <maskadapt/rl/rollout_buffer.hpp>
 #include <maskadapt/tasks/imitation.hpp>
+#include <maskadapt/train/base_policy.hpp>
 #include <maskadapt/train/config.hpp>
 #include <maskadapt/train/progress.hpp>
 
@@ -50,14 +52,6 @@ using RowVectorXf = RowVectorX<float>;
 /// (motion-library windows of 5 frames of unmasked features, same layout as the task's).
 using RealWindowSampler = std::function<void(Rng& rng, Eigen::Ref<MatrixXf> out)>;
 
-inline nn::Activation activation_from_name(const std::string& name) {
-  if (name == "relu") return nn::Activation::ReLU;
-  if (name == "elu") return nn::Activation::ELU;
-  if (name == "silu") return nn::Activation::SiLU;
-  if (name == "tanh") return nn::Activation::Tanh;
-  throw Error("unknown activation '" + name + "'", {{}, std::nullopt, "net.activation"});
-}
-
 /// The task configuration implied by a trainer config.
 inline tasks::ImitationTaskConfig task_config(const BaseTrainConfig& c, std::optional<FallCriteria> fall = std::nullopt) {
   tasks::ImitationTaskConfig t;
@@ -70,13 +64,6 @@ inline tasks::ImitationTaskConfig task_config(const BaseTrainConfig& c, std::opt
   t.max_masked_parts = c.mask.max_parts;
   return t;
 }
-
-/// Networks of a base policy (what `play`/`eval-base` and stage 2 load from a checkpoint).
-struct BasePolicy {
-  rl::ActorCritic<float> ac;
-  nn::Mlp<float> disc;                    ///< amp_dim → 1 logit
-  nn::RunningNormalizer<float> disc_norm; ///< over discriminator windows
-};
 
 template <Simulator Sim>
 class BaseTrainer {
@@ -91,21 +78,9 @@ class BaseTrainer {
         rng_(Rng::stream(cfg_.run.seed, 0xB45E0000ULL)) {
     require(static_cast<bool>(real_), "no real window sampler given", {{}, {}, "real_sampler"});
     Rng init = Rng::stream(cfg_.run.seed, 0x1A17ULL);
-    rl::ActorCriticConfig ac;
-    ac.policy_input_dim = task_.policy_input_dim();
-    ac.critic_input_dim = task_.obs_dim();
-    ac.action_dim = task_.action_dim();
-    ac.actor_hidden = cfg_.net.actor_hidden;
-    ac.critic_hidden = cfg_.net.critic_hidden;
-    ac.activation = activation_from_name(cfg_.net.activation);
-    ac.init_log_std = cfg_.net.init_log_std;
-    ac.learn_log_std = cfg_.net.learn_log_std;
-    policy_.ac = rl::ActorCritic<float>(ac, init);
-    policy_.disc = nn::Mlp<float>(nn::MlpSpec{task_.amp_dim(), cfg_.net.disc_hidden, 1, ac.activation}, init);
-    policy_.disc_norm = nn::RunningNormalizer<float>(task_.amp_dim(), 5.0);
+    policy_ = make_base_policy(cfg_, dims(), init);
     actor_opt_ = nn::Adam<float>({cfg_.ppo.actor_lr, 0.9, 0.999, 1e-8, 0.0, false, cfg_.ppo.max_grad_norm});
     critic_opt_ = nn::Adam<float>({cfg_.ppo.critic_lr, 0.9, 0.999, 1e-8, 0.0, false, cfg_.ppo.max_grad_norm});
-    disc_opt_ = nn::Adam<float>({cfg_.disc.lr, 0.9, 0.999, 1e-8, cfg_.disc.weight_decay, false, cfg_.ppo.max_grad_norm});
     rl::RolloutSpec spec;
     spec.horizon = cfg_.ppo.horizon;
     spec.num_envs = task_.num_envs();
@@ -122,6 +97,10 @@ class BaseTrainer {
   const BasePolicy& policy() const { return policy_; }
   long long iteration() const { return iteration_; }
   long long samples() const { return samples_; }
+  /// Network dimensions of this trainer's task.
+  PolicyDims dims() const {
+    return {task_.obs_dim(), task_.policy_input_dim(), task_.action_dim(), task_.amp_dim()};
+  }
 
   /// Runs one iteration (collection, rewards, GAE, PPO + MI, discriminator) and returns its stats.
   IterationStats iterate() {
@@ -162,10 +141,11 @@ class BaseTrainer {
     c.put("actor/adam", policy_.ac.actor.mean_net.block().storage());
     c.put("actor/log_std_adam", policy_.ac.actor.log_std.storage());
     c.put("critic/adam", policy_.ac.critic.net.block().storage());
-    c.put("disc/adam", policy_.disc.block().storage());
+    c.put("disc/adam", policy_.disc.net().block().storage());
     c.put_int("actor/adam_steps", actor_opt_.step_count());
     c.put_int("critic/adam_steps", critic_opt_.step_count());
-    c.put_int("disc/adam_steps", disc_opt_.step_count());
+    // rl::Discriminator exposes its optimiser only mutably; reading the step count changes nothing
+    c.put_int("disc/adam_steps", const_cast<rl::Discriminator<float>&>(policy_.disc).optimizer().step_count());
     c.put("replay/storage", replay_.storage());
     c.put_int("replay/size", replay_.size());
     c.put_int("replay/head", replay_.head());
@@ -206,10 +186,10 @@ class BaseTrainer {
     c.copy_to<float>("actor/adam", policy_.ac.actor.mean_net.block().storage());
     c.copy_to<float>("actor/log_std_adam", policy_.ac.actor.log_std.storage());
     c.copy_to<float>("critic/adam", policy_.ac.critic.net.block().storage());
-    c.copy_to<float>("disc/adam", policy_.disc.block().storage());
+    c.copy_to<float>("disc/adam", policy_.disc.net().block().storage());
     actor_opt_.set_step_count(c.get_int("actor/adam_steps"));
     critic_opt_.set_step_count(c.get_int("critic/adam_steps"));
-    disc_opt_.set_step_count(c.get_int("disc/adam_steps"));
+    policy_.disc.optimizer().set_step_count(c.get_int("disc/adam_steps"));
     replay_.restore(c.get_matrix<float>("replay/storage", task_.amp_dim(), cfg_.disc.replay_size),
                     c.get_int("replay/size"), c.get_int("replay/head"));
     rng_.set_state(c.get_rng("trainer/rng"));
@@ -232,36 +212,6 @@ class BaseTrainer {
     }
     ts.obs = c.get_matrix<float>("task/obs", task_.obs_dim(), n);
     task_.load_state(ts);
-  }
-
-  // ---- policy sections (shared with play / eval / stage 2) --------------------------------
-
-  static void save_normalizer(const nn::RunningNormalizer<float>& n, const std::string& name, Checkpoint& c) {
-    c.put_double(name + "/count", n.count());
-    c.put(name + "/mean", n.mean());
-    c.put(name + "/m2", n.m2());
-  }
-  static void load_normalizer(const Checkpoint& c, const std::string& name, nn::RunningNormalizer<float>& n) {
-    n.set_state(c.get_double(name + "/count"), c.get_vector<double>(name + "/mean", n.dim()),
-                c.get_vector<double>(name + "/m2", n.dim()));
-  }
-  static void save_policy(const BasePolicy& p, Checkpoint& c) {
-    c.put("actor/params", p.ac.actor.mean_net.params());
-    c.put("actor/log_std", p.ac.actor.log_std.params());
-    c.put("critic/params", p.ac.critic.net.params());
-    c.put("disc/params", p.disc.params());
-    save_normalizer(p.ac.actor.normalizer, "actor/norm", c);
-    save_normalizer(p.ac.critic.normalizer, "critic/norm", c);
-    save_normalizer(p.disc_norm, "disc/norm", c);
-  }
-  static void load_policy(const Checkpoint& c, BasePolicy& p) {
-    c.copy_to<float>("actor/params", p.ac.actor.mean_net.params());
-    c.copy_to<float>("actor/log_std", p.ac.actor.log_std.params());
-    c.copy_to<float>("critic/params", p.ac.critic.net.params());
-    c.copy_to<float>("disc/params", p.disc.params());
-    load_normalizer(c, "actor/norm", p.ac.actor.normalizer);
-    load_normalizer(c, "critic/norm", p.ac.critic.normalizer);
-    load_normalizer(c, "disc/norm", p.disc_norm);
   }
 
  private:
@@ -312,19 +262,9 @@ class BaseTrainer {
 
   // ---- 2. discriminator rewards -----------------------------------------------------------
   void compute_rewards(IterationStats& st) {
-    const auto kind = cfg_.disc.lsgan ? rl::DiscriminatorLoss::LSGAN : rl::DiscriminatorLoss::BCE;
-    disc_logits(buf_.amp_windows, logit_);
-    const RowVectorXf r = rl::amp_reward<float>(kind, logit_) * static_cast<float>(cfg_.disc.reward_scale);
+    const RowVectorXf r = policy_.disc.reward(buf_.amp_windows);  // (1 × N·H), includes reward_scale
     buf_.rewards.row(0) = r;
     st.disc_reward = r.cast<double>().mean();
-  }
-
-  void disc_logits(const MatrixXf& x, RowVectorXf& out) {
-    disc_scratch_.resize(x.rows(), x.cols());
-    policy_.disc_norm.normalize(x, disc_scratch_);
-    disc_y_.resize(1, x.cols());
-    policy_.disc.forward(disc_scratch_, disc_y_, disc_ws_);
-    out = disc_y_.row(0);
   }
 
   // ---- 4. PPO + MI --------------------------------------------------------------------------
@@ -404,13 +344,16 @@ class BaseTrainer {
   }
 
   // ---- 5. discriminator -------------------------------------------------------------------
+  // BCE (or LSGAN) on real motion-library windows vs agent windows (half fresh, half replayed),
+  // + gradient penalty on the real samples, logit regularisation and weight decay
+  // (rl::Discriminator::update; a non-finite loss or gradient skips the step).
   void update_discriminator(IterationStats& st) {
-    const auto kind = cfg_.disc.lsgan ? rl::DiscriminatorLoss::LSGAN : rl::DiscriminatorLoss::BCE;
+    auto& disc = policy_.disc;
     const Index n = buf_.size(), B = cfg_.disc.batch_size, half = B / 2, D = task_.amp_dim();
     const Index steps = std::max<Index>(1, cfg_.disc.epochs * n / B);
-    MatrixXf real(D, B), fake(D, B), x(D, 2 * B), xn;
-    RowVectorXf g_real, g_fake;
-    double sum_real = 0, sum_fake = 0, sum_loss = 0;
+    MatrixXf real(D, B), fake(D, B), rep;
+    const MatrixXf no_cond;
+    double sum_real = 0, sum_fake = 0, sum_loss = 0, sum_gp = 0;
     for (Index s = 0; s < steps; ++s) {
       real_(rng_, real);
       for (Index j = 0; j < B - half; ++j)
@@ -419,36 +362,25 @@ class BaseTrainer {
         for (Index j = B - half; j < B; ++j)
           fake.col(j) = buf_.amp_windows.col(static_cast<Index>(rng_.uniform_int(static_cast<std::uint64_t>(n))));
       } else {
-        MatrixXf rep;
         replay_.sample(half, rng_, rep);
         fake.rightCols(half) = rep;
       }
       if (s == 0) {
-        policy_.disc_norm.update(real);
-        policy_.disc_norm.update(fake.leftCols(B - half));
+        disc.update_normalizer(real);
+        disc.update_normalizer(fake.leftCols(B - half));
       }
-      x << real, fake;
-      xn.resize(D, 2 * B);
-      policy_.disc_norm.normalize(x, xn);
-      policy_.disc.zero_grad();
-      const MatrixXf& logits = policy_.disc.forward_train(xn, disc_cache_);
-      const auto obj = rl::amp_objective<float>(kind, logits.leftCols(B), logits.rightCols(B), g_real, g_fake);
-      MatrixXf dy(1, 2 * B);
-      dy << g_real, g_fake;
-      policy_.disc.backward(disc_cache_, dy, policy_.disc.grads());
-      // logit regularisation: L2 on the output layer's weights
-      const Index last = policy_.disc.num_layers() - 1;
-      policy_.disc.weight_grad(last) += static_cast<float>(2.0 * cfg_.disc.logit_reg) * policy_.disc.weight(last);
-      const auto r = disc_opt_.step(policy_.disc.block());
-      if (!r.applied) ++st.skipped_updates;
-      sum_real += obj.real_mean;
-      sum_fake += obj.fake_mean;
-      sum_loss += obj.loss;
+      const rl::DiscriminatorStats ds = disc.update(real, no_cond, fake, no_cond);
+      if (ds.skipped) ++st.skipped_updates;
+      sum_real += ds.real_mean;
+      sum_fake += ds.fake_mean;
+      sum_loss += ds.loss;
+      sum_gp += ds.grad_penalty;
     }
     replay_.push(buf_.amp_windows);
     st.disc_real = sum_real / static_cast<double>(steps);
     st.disc_fake = sum_fake / static_cast<double>(steps);
     st.disc_loss = sum_loss / static_cast<double>(steps);
+    st.disc_grad_penalty = sum_gp / static_cast<double>(steps);
   }
 
   BaseTrainConfig cfg_;
@@ -456,16 +388,16 @@ class BaseTrainer {
   RealWindowSampler real_;
   Rng rng_;
   BasePolicy policy_;
-  nn::Adam<float> actor_opt_, critic_opt_, disc_opt_;
+  nn::Adam<float> actor_opt_, critic_opt_;
   rl::RolloutBuffer<float> buf_;
   rl::ReplayBuffer<float> replay_;
   long long iteration_ = 0, samples_ = 0;
   // workspaces (collection path allocates nothing once sized)
-  nn::InferenceWorkspace<float> actor_ws_, critic_ws_, disc_ws_;
-  nn::TrainCache<float> actor_cache_, critic_cache_, disc_cache_;
+  nn::InferenceWorkspace<float> actor_ws_, critic_ws_;
+  nn::TrainCache<float> actor_cache_, critic_cache_;
   adapt::MiWorkspace<float> mi_ws_;
-  MatrixXf actions_, mu_, values_, scratch_, disc_scratch_, disc_y_;
-  RowVectorXf logp_, logit_;
+  MatrixXf actions_, mu_, values_, scratch_;
+  RowVectorXf logp_;
 };
 
 }  // namespace maskadapt::train

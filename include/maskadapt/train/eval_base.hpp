@@ -1,0 +1,275 @@
+#pragma once
+/// \file eval_base.hpp
+/// Evaluation of a base policy (`maskadapt eval-base`): the paper's table of the normalised
+/// entropy of frame visitation H_norm (eval/visitation_entropy.hpp) for the null mask and every
+/// mask of one or two parts (5 + 10 masks: an upper-triangular table over the 5 parts, singles on
+/// the diagonal), each from random reference initial states (RSI) and from one shared initial
+/// state, plus the fall rate and mean episode length under each mask.
+///
+/// Per (mask, start mode): `envs` envs run `frames` control steps each with the fixed mask; an
+/// env that falls is reset (RSI, or the shared state) and keeps running; episodes are limited to
+/// `episode_seconds`. Every simulated frame contributes its visitation feature (root-relative body
+/// positions in the heading frame, motion/library.hpp visitation_features) to the generated set;
+/// H_norm is computed against the reference frames' features with `threshold` (Euclidean, m).
+/// Every (mask, mode) uses the same seeds (common random numbers), so differences between masks
+/// are not sampling noise of the initial states.
+#include <maskadapt/core/error.hpp>
+#include <maskadapt/core/rng.hpp>
+#include <maskadapt/eval/visitation_entropy.hpp>
+#include <maskadapt/motion/library.hpp>
+#include <maskadapt/tasks/imitation.hpp>
+#include <maskadapt/train/base_policy.hpp>
+
+#include <nlohmann/json.hpp>
+
+#include <cmath>
+#include <cstdio>
+#include <optional>
+#include <sstream>
+#include <string>
+#include <vector>
+
+namespace maskadapt::train {
+
+struct EvalBaseOptions {
+  long long frames = 1000;       ///< control steps per env per (mask, mode)
+  double threshold = 0.5;        ///< m; Euclidean over the 3·(bodies−1) features (≈ 0.1 m per body on the humanoid)
+  double episode_seconds = 10.0; ///< episode limit (s)
+  bool deterministic = false;    ///< policy mean instead of samples
+  std::uint64_t seed = 1;
+};
+
+/// Results of one (mask, start mode).
+struct VisitationResult {
+  double h_norm = 0;              ///< normalised visitation entropy in [0, 1]
+  double matched_fraction = 0;    ///< generated frames within the threshold of some reference frame
+  double visited_fraction = 0;    ///< reference frames visited at least once
+  double fall_rate = NAN;         ///< ended-by-fall / ended episodes (NaN: none ended)
+  double mean_episode_length = NAN;  ///< s, over ended episodes (NaN: none ended)
+  long long episodes = 0;         ///< ended episodes
+  long long falls = 0;
+};
+
+struct MaskEvaluation {
+  PartMask mask;
+  VisitationResult rsi;     ///< random reference initial states
+  VisitationResult shared;  ///< one shared initial state
+};
+
+struct BaseEvaluation {
+  std::vector<MaskEvaluation> rows;  ///< null mask, 5 singles, 10 pairs (part order)
+  long long reference_frames = 0;
+  long long generated_frames_per_mask = 0;
+  EvalBaseOptions options;
+};
+
+/// The masks of the table: none, then {p} for each part, then {p, q} for p < q.
+inline std::vector<PartMask> one_and_two_part_masks() {
+  std::vector<PartMask> m{PartMask::none()};
+  for (int p = 0; p < kNumParts; ++p) m.push_back(PartMask::of(static_cast<BodyPart>(p)));
+  for (int p = 0; p < kNumParts; ++p)
+    for (int q = p + 1; q < kNumParts; ++q) m.push_back(PartMask::of(static_cast<BodyPart>(p)) | PartMask::of(static_cast<BodyPart>(q)));
+  return m;
+}
+
+/// Reference visitation features of every frame of every clip of `lib`: (3·(bodies−1) × total frames).
+inline MatrixXf reference_visitation_features(const MotionLibrary& lib) {
+  std::vector<MatrixXf> parts;
+  Index cols = 0;
+  for (int c = 0; c < lib.num_clips(); ++c) {
+    parts.push_back(lib.clip_visitation_features(c));
+    cols += parts.back().cols();
+  }
+  require(!parts.empty() && cols > 0, "the motion library has no frames", {{}, {}, "reference"});
+  MatrixXf r(parts.front().rows(), cols);
+  Index at = 0;
+  for (const auto& p : parts) {
+    r.middleCols(at, p.cols()) = p;
+    at += p.cols();
+  }
+  return r;
+}
+
+/// Runs `policy` on all envs of `sim` with the fixed `mask` for opt.frames steps, starting from
+/// `reset` samples, and returns H_norm against `reference` plus episode statistics.
+template <Simulator Sim>
+VisitationResult evaluate_visitation(Sim& sim, const BasePolicy& policy, const tasks::ResetSampler& reset, PartMask mask,
+                                     const Eigen::Ref<const MatrixXf>& reference, const EvalBaseOptions& opt,
+                                     std::optional<FallCriteria> fall = std::nullopt, double min_head_height = 0.3,
+                                     ThreadPool* pool = nullptr) {
+  require(opt.frames >= 1, "frames must be >= 1", {{}, {}, "frames"});
+  tasks::ImitationTaskConfig tc;
+  tc.fall = std::move(fall);
+  tc.min_head_height = min_head_height;
+  tc.episode_seconds = opt.episode_seconds;
+  tc.early_termination = true;
+  tc.masking = false;
+  tc.fixed_mask = mask;
+  tasks::ImitationTask<Sim> task(sim, reset, tc, opt.seed, pool);
+  require(policy.ac.actor.input_dim() == task.policy_input_dim() && policy.ac.actor.action_dim() == task.action_dim(),
+          "the policy does not fit this simulator", {{}, {}, "checkpoint"});
+  const Skeleton& skel = sim.skeleton();
+  const Index N = task.num_envs();
+  const Index d = reference.rows();
+  MatrixXf generated(d, N * static_cast<Index>(opt.frames));
+  Rng act_rng = Rng::stream(opt.seed, 0xE7A1ULL);
+  nn::InferenceWorkspace<float> ws;
+  MatrixXf actions(task.action_dim(), N), mu(task.action_dim(), N), scratch;
+  RowVectorX<float> logp;
+  task.stats().clear();
+  for (long long f = 0; f < opt.frames; ++f) {
+    if (opt.deterministic) {
+      policy.ac.actor.mean(task.policy_inputs(), mu, ws, scratch);
+      actions = mu;
+    } else {
+      policy.ac.actor.act(task.policy_inputs(), act_rng, actions, logp, mu, ws, scratch);
+    }
+    task.step(actions);
+    // the frame after this step (for an env whose episode just ended: the new episode's first frame)
+    for (Index e = 0; e < N; ++e) {
+      const VectorXf v = visitation_features(skel, sim.body_states(static_cast<std::size_t>(e)));
+      require(v.size() == d, "visitation features have " + std::to_string(v.size()) + " rows, reference has " +
+                                 std::to_string(d), {{}, {}, "reference"});
+      generated.col(static_cast<Index>(f) * N + e) = v;
+    }
+  }
+  const auto& es = task.stats();
+  const eval::VisitationEntropy ve = eval::visitation_entropy(reference, generated, opt.threshold);
+  VisitationResult r;
+  r.h_norm = ve.h_norm;
+  r.matched_fraction = static_cast<double>(ve.matched_generated) / static_cast<double>(generated.cols());
+  r.visited_fraction = static_cast<double>(ve.visited_reference) / static_cast<double>(reference.cols());
+  r.fall_rate = es.fall_rate();
+  r.mean_episode_length = es.mean_length();
+  r.episodes = es.episodes;
+  r.falls = es.falls;
+  return r;
+}
+
+/// The whole table: every mask of one_and_two_part_masks(), from RSI (`reset`) and from one
+/// shared initial state (the first sample of `reset` with Rng::stream(seed, 0x5A4ED)).
+template <Simulator Sim>
+BaseEvaluation evaluate_base_policy(Sim& sim, const BasePolicy& policy, const tasks::ResetSampler& reset,
+                                    const Eigen::Ref<const MatrixXf>& reference, const EvalBaseOptions& opt,
+                                    std::optional<FallCriteria> fall = std::nullopt, double min_head_height = 0.3,
+                                    ThreadPool* pool = nullptr, std::ostream* progress = nullptr) {
+  BaseEvaluation out;
+  out.options = opt;
+  out.reference_frames = reference.cols();
+  out.generated_frames_per_mask = static_cast<long long>(sim.num_envs()) * opt.frames;
+  Rng shared_rng = Rng::stream(opt.seed, 0x5A4EDULL);
+  const tasks::ResetSample shared_sample = reset(shared_rng);
+  const tasks::ResetSampler shared = [shared_sample](Rng&) { return shared_sample; };
+  for (PartMask m : one_and_two_part_masks()) {
+    MaskEvaluation row;
+    row.mask = m;
+    row.rsi = evaluate_visitation(sim, policy, reset, m, reference, opt, fall, min_head_height, pool);
+    row.shared = evaluate_visitation(sim, policy, shared, m, reference, opt, fall, min_head_height, pool);
+    if (progress)
+      *progress << "eval-base: " << m.to_string() << ": H_norm RSI " << row.rsi.h_norm << ", shared " << row.shared.h_norm
+                << ", fall rate " << row.rsi.fall_rate << std::endl;
+    out.rows.push_back(row);
+  }
+  return out;
+}
+
+/// The upper-triangular table of one start mode as text: rows and columns are the 5 parts; cell
+/// (p, p) masks part p alone, cell (p, q), p < q, masks both; the null mask is printed above.
+inline std::string format_hnorm_table(const BaseEvaluation& ev, bool shared) {
+  auto value = [&](PartMask m) {
+    for (const auto& r : ev.rows)
+      if (r.mask == m) return shared ? r.shared.h_norm : r.rsi.h_norm;
+    return static_cast<double>(NAN);
+  };
+  std::ostringstream s;
+  char buf[64];
+  std::snprintf(buf, sizeof buf, "%.4f", value(PartMask::none()));
+  s << "H_norm, " << (shared ? "shared initial state" : "random initial states (RSI)") << "; null mask: " << buf << "\n";
+  s << std::string(11, ' ');
+  for (int q = 0; q < kNumParts; ++q) {
+    std::snprintf(buf, sizeof buf, "%10s", std::string(kPartNames[q]).c_str());
+    s << buf;
+  }
+  s << "\n";
+  for (int p = 0; p < kNumParts; ++p) {
+    std::snprintf(buf, sizeof buf, "%-11s", std::string(kPartNames[p]).c_str());
+    s << buf;
+    for (int q = 0; q < kNumParts; ++q) {
+      if (q < p) {
+        s << std::string(10, ' ');
+        continue;
+      }
+      const PartMask m = PartMask::of(static_cast<BodyPart>(p)) | PartMask::of(static_cast<BodyPart>(q));
+      std::snprintf(buf, sizeof buf, "%10.4f", value(m));
+      s << buf;
+    }
+    s << "\n";
+  }
+  return s.str();
+}
+
+/// Fall rate and mean episode length per mask, one line each.
+inline std::string format_episode_table(const BaseEvaluation& ev) {
+  std::ostringstream s;
+  char buf[160];
+  std::snprintf(buf, sizeof buf, "%-22s %12s %12s %12s %12s\n", "mask", "fall(RSI)", "len(RSI) s", "fall(shared)", "len(shared) s");
+  s << buf;
+  for (const auto& r : ev.rows) {
+    std::snprintf(buf, sizeof buf, "%-22s %12.3f %12.2f %12.3f %12.2f\n", r.mask.to_string().c_str(), r.rsi.fall_rate,
+                  r.rsi.mean_episode_length, r.shared.fall_rate, r.shared.mean_episode_length);
+    s << buf;
+  }
+  return s.str();
+}
+
+inline nlohmann::json to_json(const VisitationResult& r) {
+  auto num = [](double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr); };
+  return {{"h_norm", r.h_norm},
+          {"matched_fraction", r.matched_fraction},
+          {"visited_fraction", r.visited_fraction},
+          {"fall_rate", num(r.fall_rate)},
+          {"mean_episode_length", num(r.mean_episode_length)},
+          {"episodes", r.episodes},
+          {"falls", r.falls}};
+}
+
+/// JSON document: options, sizes, one object per mask, and the two 5×5 upper-triangular tables
+/// (`table_rsi`, `table_shared`; null below the diagonal).
+inline nlohmann::json to_json(const BaseEvaluation& ev) {
+  nlohmann::json j;
+  j["format"] = "maskadapt-eval-base";
+  j["version"] = 1;
+  j["parts"] = std::vector<std::string>(kPartNames.begin(), kPartNames.end());
+  j["frames"] = ev.options.frames;
+  j["threshold"] = ev.options.threshold;
+  j["episode_seconds"] = ev.options.episode_seconds;
+  j["deterministic"] = ev.options.deterministic;
+  j["seed"] = ev.options.seed;
+  j["reference_frames"] = ev.reference_frames;
+  j["generated_frames_per_mask"] = ev.generated_frames_per_mask;
+  j["masks"] = nlohmann::json::array();
+  for (const auto& r : ev.rows)
+    j["masks"].push_back({{"mask", r.mask.to_string()}, {"bits", r.mask.bits}, {"rsi", to_json(r.rsi)}, {"shared", to_json(r.shared)}});
+  for (int shared = 0; shared < 2; ++shared) {
+    nlohmann::json t = nlohmann::json::array();
+    for (int p = 0; p < kNumParts; ++p) {
+      nlohmann::json row = nlohmann::json::array();
+      for (int q = 0; q < kNumParts; ++q) {
+        if (q < p) {
+          row.push_back(nullptr);
+          continue;
+        }
+        const PartMask m = PartMask::of(static_cast<BodyPart>(p)) | PartMask::of(static_cast<BodyPart>(q));
+        for (const auto& r : ev.rows)
+          if (r.mask == m) row.push_back(shared ? r.shared.h_norm : r.rsi.h_norm);
+      }
+      t.push_back(row);
+    }
+    j[shared ? "table_shared" : "table_rsi"] = t;
+    for (const auto& r : ev.rows)
+      if (r.mask.empty()) j[shared ? "null_shared" : "null_rsi"] = shared ? r.shared.h_norm : r.rsi.h_norm;
+  }
+  return j;
+}
+
+}  // namespace maskadapt::train

@@ -1,0 +1,222 @@
+// play / eval-base on the tiny analytic simulator: the recorded clip reproduces the simulated
+// body poses through forward kinematics, masks follow the schedule, outputs round-trip through
+// their readers, and the H_norm table has the paper's shape and its closed-form extremes.
+#include "tiny_sim.hpp"
+
+#include <maskadapt/motion/bvh.hpp>
+#include <maskadapt/motion/retarget.hpp>
+#include <maskadapt/train/eval_base.hpp>
+#include <maskadapt/train/play.hpp>
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <set>
+
+using namespace maskadapt;
+using namespace maskadapt::train;
+using maskadapt::testing::TinyWalkerSim;
+
+namespace {
+
+tasks::ResetSampler upright(const Skeleton& skel) {
+  return [&skel](Rng& rng) {
+    tasks::ResetSample r;
+    r.pose = KinematicState::zero(skel);
+    r.pose.root_pos.z() = TinyWalkerSim::kHeight;
+    for (Index i = 0; i < r.pose.q.size(); ++i) r.pose.q[i] = rng.uniform(-0.3, 0.3);
+    return r;
+  };
+}
+
+BaseTrainConfig tiny_config() {
+  BaseTrainConfig c = cpu_preset();
+  c.net.actor_hidden = {8};
+  c.net.critic_hidden = {8};
+  c.net.disc_hidden = {8};
+  c.net.init_log_std = -1.0;
+  return c;
+}
+
+struct Fixture {
+  TinyWalkerSim sim;
+  BasePolicy policy;
+  explicit Fixture(std::size_t envs = 1) : sim(envs) {
+    const Index d = observation_dim(sim.skeleton());
+    Rng init(3);
+    policy = make_base_policy(tiny_config(), {d, d + kNumParts, sim.skeleton().num_dofs(), 5 * d}, init);
+  }
+  FallCriteria fall() const { return FallCriteria::for_skeleton(sim.skeleton(), {"l_leg", "r_leg"}, "head", 0.8); }
+};
+
+std::filesystem::path temp(const std::string& name) { return std::filesystem::temp_directory_path() / name; }
+
+}  // namespace
+
+TEST(Play, ClipReproducesTheSimulatedBodyPosesAndMasksFollowTheSchedule) {
+  Fixture f;
+  PlayOptions opt;
+  opt.seconds = 1.0;
+  opt.masks = MaskSampler::scheduled("0:none,0.5:left_leg,right_arm");
+  const PlayResult r = play_base_policy(f.sim, f.policy, upright(f.sim.skeleton()), opt,
+                                        eval::make_rollout(f.sim.skeleton(), 30.0), f.fall());
+  const int frames = static_cast<int>(std::llround(1.0 / f.sim.control_dt())) + 1;
+  ASSERT_EQ(r.rollout.num_frames(), frames);
+  ASSERT_EQ(r.clip.num_frames(), frames);
+  ASSERT_EQ(r.root.cols(), frames);
+  double worst = 0;
+  for (int t = 0; t < frames; ++t) {
+    const BodyStates b = forward_kinematics(f.sim.skeleton(), r.clip.frame(t));
+    worst = std::max(worst, (b.pos - r.rollout.positions[static_cast<std::size_t>(t)]).cwiseAbs().maxCoeff());
+    const double time = t * r.dt;
+    const PartMask expected = time < 0.5 - 1e-9 ? PartMask::none() : PartMask::parse("left_leg,right_arm");
+    EXPECT_EQ(r.rollout.masks[static_cast<std::size_t>(t)], expected) << "frame " << t;
+  }
+  EXPECT_LT(worst, 1e-9) << "FK of the recovered joint angles differs from the simulated body positions";
+  // the policy moved the joints (the clip is not a frozen pose)
+  EXPECT_GT((r.clip.q.col(frames - 1) - r.clip.q.col(0)).norm(), 1e-3);
+}
+
+TEST(Play, DeterministicRunsRepeatAndSampledRunsDependOnTheSeed) {
+  auto run = [](bool det, std::uint64_t seed) {
+    Fixture f;
+    PlayOptions opt;
+    opt.seconds = 0.5;
+    opt.deterministic = det;
+    opt.seed = seed;
+    return play_base_policy(f.sim, f.policy, upright(f.sim.skeleton()), opt, eval::make_rollout(f.sim.skeleton()), f.fall()).clip.q;
+  };
+  EXPECT_EQ(run(true, 1), run(true, 1));
+  EXPECT_EQ(run(false, 4), run(false, 4));
+  EXPECT_NE(run(false, 4), run(false, 5));
+}
+
+TEST(Play, OutputsRoundTripThroughTheirReaders) {
+  Fixture f;
+  PlayOptions opt;
+  opt.seconds = 0.5;
+  opt.masks = MaskSampler::fixed(PartMask::parse("legs"));
+  const PlayResult r = play_base_policy(f.sim, f.policy, upright(f.sim.skeleton()), opt, eval::make_rollout(f.sim.skeleton()), f.fall());
+  // CSV: header + one row per frame, values as recorded
+  const auto csv = temp("maskadapt_play_test.csv");
+  write_root_xy_csv(csv.string(), r.root, r.dt);
+  std::ifstream in(csv);
+  std::string line;
+  std::getline(in, line);
+  EXPECT_EQ(line, "t,x,y");
+  int rows = 0;
+  double t = 0, x = 0, y = 0;
+  char c1, c2;
+  while (in >> t >> c1 >> x >> c2 >> y) {
+    EXPECT_NEAR(t, rows * r.dt, 1e-9);
+    EXPECT_NEAR(x, r.root(0, rows), 1e-8);
+    EXPECT_NEAR(y, r.root(1, rows), 1e-8);
+    ++rows;
+  }
+  EXPECT_EQ(rows, r.root.cols());
+  std::filesystem::remove(csv);
+  // viewer rollout: frames, masks and contacts survive write → read
+  const auto json = temp("maskadapt_play_test.json");
+  eval::write_rollout(r.rollout, json.string());
+  const eval::Rollout back = eval::read_rollout(json.string());
+  ASSERT_EQ(back.num_frames(), r.rollout.num_frames());
+  EXPECT_EQ(back.masks.back(), PartMask::parse("legs"));
+  EXPECT_EQ(back.contacts.size(), r.rollout.contacts.size());
+  std::filesystem::remove(json);
+  // BVH: text → parser, same frame count and frame time
+  const bvh::Motion m = bvh::parse(bvh::to_string(clip_to_bvh(r.clip, f.sim.skeleton())));
+  EXPECT_EQ(m.frames.cols(), r.clip.num_frames());
+  EXPECT_NEAR(m.frame_time, r.dt, 1e-9);
+}
+
+TEST(Play, RejectsAPolicyOfTheWrongSize) {
+  Fixture f;
+  BaseTrainConfig c = tiny_config();
+  Rng init(1);
+  const BasePolicy wrong = make_base_policy(c, {10, 15, 4, 50}, init);
+  EXPECT_THROW(play_base_policy(f.sim, wrong, upright(f.sim.skeleton()), PlayOptions{}, eval::make_rollout(f.sim.skeleton()), f.fall()),
+               Error);
+}
+
+TEST(EvalBase, MasksAreTheNullMaskAndEveryMaskOfOneOrTwoParts) {
+  const auto masks = one_and_two_part_masks();
+  ASSERT_EQ(masks.size(), 16u);
+  EXPECT_TRUE(masks[0].empty());
+  std::set<int> bits;
+  for (auto m : masks) {
+    EXPECT_LE(m.count(), 2);
+    bits.insert(m.bits);
+  }
+  EXPECT_EQ(bits.size(), 16u);
+}
+
+TEST(EvalBase, HNormReachesItsClosedFormExtremes) {
+  Fixture f(3);
+  EvalBaseOptions opt;
+  opt.frames = 12;
+  opt.episode_seconds = 0.2;
+  // reference: 7 arbitrary frames of the right dimension
+  const Index d = visitation_features(f.sim.skeleton(), f.sim.body_states(0)).size();
+  const MatrixXf ref = MatrixXf::Random(d, 7);
+  // a threshold larger than any distance: every generated frame counts for every reference frame → uniform → 1
+  opt.threshold = 1e6;
+  const auto all = evaluate_visitation(f.sim, f.policy, upright(f.sim.skeleton()), PartMask::none(), ref, opt, f.fall());
+  EXPECT_DOUBLE_EQ(all.h_norm, 1.0);
+  EXPECT_DOUBLE_EQ(all.matched_fraction, 1.0);
+  EXPECT_DOUBLE_EQ(all.visited_fraction, 1.0);
+  // threshold 0 against frames far away: nothing matches → 0 by convention
+  opt.threshold = 0.0;
+  const auto none = evaluate_visitation(f.sim, f.policy, upright(f.sim.skeleton()), PartMask::none(), MatrixXf(ref.array() + 100.f), opt, f.fall());
+  EXPECT_EQ(none.h_norm, 0.0);
+  EXPECT_EQ(none.matched_fraction, 0.0);
+  // episodes of 0.2 s over 12 steps of 1/30 s: every env ends at least one episode
+  EXPECT_GE(all.episodes, 3);
+  EXPECT_GE(all.fall_rate, 0.0);
+  EXPECT_LE(all.fall_rate, 1.0);
+  EXPECT_GT(all.mean_episode_length, 0.0);
+  EXPECT_LE(all.mean_episode_length, 0.2 + 1e-9);
+}
+
+TEST(EvalBase, TableHasTheUpperTriangularShapeAndJsonMatchesTheRows) {
+  Fixture f(2);
+  EvalBaseOptions opt;
+  opt.frames = 6;
+  opt.threshold = 0.3;
+  // reference: the visitation features of a few random upright poses
+  const Skeleton& skel = f.sim.skeleton();
+  Rng rng(9);
+  auto reset = upright(skel);
+  MatrixXf ref;
+  for (int k = 0; k < 20; ++k) {
+    const VectorXf v = visitation_features(skel, forward_kinematics(skel, reset(rng).pose));
+    if (k == 0) ref.resize(v.size(), 20);
+    ref.col(k) = v;
+  }
+  const BaseEvaluation ev = evaluate_base_policy(f.sim, f.policy, reset, ref, opt, f.fall());
+  ASSERT_EQ(ev.rows.size(), 16u);
+  for (const auto& r : ev.rows) {
+    EXPECT_GE(r.rsi.h_norm, 0.0);
+    EXPECT_LE(r.rsi.h_norm, 1.0);
+    EXPECT_GE(r.shared.h_norm, 0.0);
+    EXPECT_LE(r.shared.h_norm, 1.0);
+  }
+  const nlohmann::json j = to_json(ev);
+  ASSERT_EQ(j["table_rsi"].size(), 5u);
+  for (int p = 0; p < 5; ++p)
+    for (int q = 0; q < 5; ++q) {
+      const auto& cell = j["table_rsi"][p][q];
+      if (q < p) {
+        EXPECT_TRUE(cell.is_null());
+        continue;
+      }
+      const PartMask m = PartMask::of(static_cast<BodyPart>(p)) | PartMask::of(static_cast<BodyPart>(q));
+      for (const auto& r : ev.rows)
+        if (r.mask == m) EXPECT_EQ(cell.get<double>(), r.rsi.h_norm);
+    }
+  EXPECT_EQ(j["null_shared"].get<double>(), ev.rows[0].shared.h_norm);
+  EXPECT_EQ(j["masks"].size(), 16u);
+  const std::string table = format_hnorm_table(ev, false);
+  EXPECT_NE(table.find("left_leg"), std::string::npos);
+  EXPECT_EQ(std::count(table.begin(), table.end(), '\n'), 7);  // title, header, 5 rows
+}
