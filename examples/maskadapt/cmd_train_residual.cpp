@@ -126,7 +126,7 @@ void run_train_residual(const Args& a) {
     auto gen = std::make_shared<tracking::BuiltinGenerator>(tracking::BuiltinGenerator::load(c.generator, sim.skeleton()));
     std::vector<std::string> pool_texts = a.texts;
     if (pool_texts.empty()) pool_texts = {"raise arms", "wave hands", "punch", "wash self"};
-    tracking::TrackingSource t;
+    TrackingSource t;
     t.designated = PartMask::parse(c.designated, "--designated");
     t.goal_steps = c.goal_steps;
     t.weight = c.objective_weights.size() > 1 ? c.objective_weights[1] : 0.5;
