@@ -26,10 +26,10 @@ fi
 
 "$cli" train-base --preset cpu --motions locomotion --envs 32 --minutes "$minutes" --checkpoint-every 10 --out "$out"
 
-if "$cli" play --help >/dev/null 2>&1; then
-  "$cli" play "$out/checkpoint.bin" --mask left_leg,right_leg --seconds 10 --bvh "$out/legs_masked.bvh" \
-      --csv "$out/root_xy.csv" || echo "quickstart: play failed (see above)"
-fi
+"$cli" play "$out/checkpoint.bin" --mask left_leg,right_leg --seconds 10 --bvh "$out/legs_masked.bvh" \
+    --csv "$out/root_xy_legs_masked.csv" --rollout "$out/legs_masked.json"
+"$cli" play "$out/checkpoint.bin" --mask none --seconds 10 --bvh "$out/unmasked.bvh" \
+    --csv "$out/root_xy_unmasked.csv" --rollout "$out/unmasked.json"
 
 cat <<MSG
 
@@ -37,6 +37,10 @@ quickstart: done.
   configuration   $out/config.json
   training log    $out/log.jsonl     (one JSON object per iteration; plot it in the viewer's Training logs tab)
   checkpoint      $out/checkpoint.bin (continue with: $cli train-base --resume $out/checkpoint.bin --minutes 30)
-  BVH export      $out/legs_masked.bvh (if 'play' is available in this build; open it in Blender)
+  BVH export      $out/legs_masked.bvh, $out/unmasked.bvh (10 s each, legs masked / no mask; Blender: File > Import > Motion Capture)
+  root paths      $out/root_xy_legs_masked.csv, $out/root_xy_unmasked.csv (t,x,y in metres)
+  viewer rollouts $out/legs_masked.json, $out/unmasked.json (open them in tools/viewer: per-frame masks and contacts)
+Next: the H_norm table of the paper (about a minute with these flags):
+  $cli eval-base $out/checkpoint.bin --envs 4 --frames 300 --json $out/hnorm.json
 See docs/training.md for every option.
 MSG
