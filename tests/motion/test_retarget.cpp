@@ -133,7 +133,7 @@ TEST(Retarget, CmuWalkIsPlausible) {
     EXPECT_GT(step, 0.45);
     EXPECT_LT(step, 0.95);
     EXPECT_LT(q.foot_skating, 0.35);  // m/s, mean horizontal speed of feet in contact (raw CMU data)
-    EXPECT_LT(q.penetration_max, 1e-9);  // grounded: nothing below the floor
+    EXPECT_LT(q.penetration_max, 0.005);  // grounded at the 2 % quantile: at most a few mm below
     EXPECT_EQ(q.limit_violation_fraction, 0.0);
   }
 }

@@ -248,11 +248,13 @@ inline Motion parse(std::string_view text, const std::string& file = "<bvh>") {
   int pending = -1;             // joint declared, waiting for '{'
   bool seen_root = false;
   constexpr int kMaxJoints = 10000;
+  constexpr std::size_t kMaxDepth = 256;  // keeps the writer's recursion shallow
   for (;;) {
     tok = lx.expect("a joint, '}' or MOTION");
     const auto& t = tok.text;
     if (pending >= 0) {
       if (t != "{") lx.fail("expected '{' after joint '" + m.joints[pending].name + "'", tok.line);
+      if (stack.size() >= kMaxDepth) lx.fail("hierarchy nested deeper than " + std::to_string(kMaxDepth) + " joints", tok.line);
       stack.push_back(pending);
       pending = -1;
       continue;

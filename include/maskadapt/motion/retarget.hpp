@@ -16,8 +16,8 @@
 ///  4. local rotations L_b = R_h(parent)ᵀ R_h(b) (unmapped bodies follow their parent);
 ///  5. resampling to the control rate (30 Hz) with slerp (roots: lerp + slerp);
 ///  6. conversion to the 3-hinge angles, continuous in time, clamped to the joint limits;
-///  7. root translation scaled by the leg-length ratio, then the clip grounded: the lowest point
-///     of any foot over the whole clip is put on z = 0.
+///  7. root translation scaled by the leg-length ratio, then the clip grounded: a low quantile
+///     (default 2 %) of the per-frame lowest foot point is put on z = 0.
 #include <maskadapt/core/error.hpp>
 #include <maskadapt/humanoid/description.hpp>
 #include <maskadapt/motion/bvh.hpp>
@@ -28,6 +28,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
 #include <map>
@@ -170,7 +171,12 @@ inline JointMap detect_joint_map(const bvh::Motion& m, const std::string& file =
 
 struct RetargetOptions {
   double target_fps = 30.0;  ///< output frame rate
-  bool ground = true;        ///< shift the clip so that its lowest foot point is at z = 0
+  bool ground = true;        ///< shift the clip vertically so that its feet touch z = 0
+  /// Grounding puts this quantile of the per-frame lowest foot point on z = 0: 0 = the clip's
+  /// minimum (nothing below the floor); the default 0.02 ignores a few outlier frames of raw
+  /// mocap (the Daz kick's first frame dips 3 cm below the rest) at the price of them
+  /// penetrating a little (motion_quality reports it).
+  double ground_quantile = 0.02;
   bool scale_root = true;    ///< scale the root translation by the humanoid/source leg-length ratio
 };
 
@@ -246,11 +252,15 @@ inline MotionClip finish(const HumanoidSequence& seq, const HumanoidDescription&
   rep.clamped_fraction = double(clamped) / (double(Tout) * (nb - 1));
   if (opt.ground) {
     BodyStates bs;
-    double zmin = 1e300;
+    std::vector<double> low(static_cast<std::size_t>(Tout), 1e300);
     for (int k = 0; k < Tout; ++k) {
       forward_kinematics(skel, clip.frame(k), bs);
-      for (int f : geometry::foot_bodies()) zmin = std::min(zmin, geometry::lowest_point(desc, bs, f));
+      for (int f : geometry::foot_bodies())
+        low[static_cast<std::size_t>(k)] = std::min(low[static_cast<std::size_t>(k)], geometry::lowest_point(desc, bs, f));
     }
+    const auto nth = static_cast<std::size_t>(std::clamp(opt.ground_quantile, 0.0, 1.0) * (Tout - 1));
+    std::nth_element(low.begin(), low.begin() + static_cast<std::ptrdiff_t>(nth), low.end());
+    const double zmin = low[nth];
     rep.ground_shift = -zmin;
     clip.root_pos.row(2).array() -= zmin;
   }
