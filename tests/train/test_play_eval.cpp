@@ -212,7 +212,9 @@ TEST(EvalBase, TableHasTheUpperTriangularShapeAndJsonMatchesTheRows) {
       }
       const PartMask m = PartMask::of(static_cast<BodyPart>(p)) | PartMask::of(static_cast<BodyPart>(q));
       for (const auto& r : ev.rows)
-        if (r.mask == m) EXPECT_EQ(cell.get<double>(), r.rsi.h_norm);
+        if (r.mask == m) {
+          EXPECT_EQ(cell.get<double>(), r.rsi.h_norm);
+        }
     }
   EXPECT_EQ(j["null_shared"].get<double>(), ev.rows[0].shared.h_norm);
   EXPECT_EQ(j["masks"].size(), 16u);

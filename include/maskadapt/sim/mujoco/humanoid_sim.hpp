@@ -151,6 +151,81 @@ class MujocoHumanoidSim {
     return q;
   }
 
+  // ---- exact state of one env (bit-exact resume; tasks::StateSavingSimulator) ----------------
+  // Added by the trainer (issue 5). Saves everything that determines the env's next steps:
+  // MuJoCo's time, qpos (nq), qvel (nv), act (na), qacc_warmstart (nv: the constraint solver's
+  // initial guess), ctrl (nu), the contact flags read out after the last step (num_bodies), and
+  // the pose a failure reset returns to. Layout: [nq, nv, na, nu, num_bodies, num_dofs, time,
+  // qpos, qvel, act, qacc_warmstart, ctrl, contacts, reset pose (root_pos 3, root_rot xyzw 4,
+  // q, root_lin_vel 3, root_ang_vel 3, qd)].
+
+  /// Flat copy of env `env`'s state.
+  std::vector<double> save_state(std::size_t env) const {
+    const Env& e = at(env);
+    const mjModel* m = model_.get();
+    const mjData* d = e.data.get();
+    const int nb = desc_.skeleton.num_bodies(), nd = desc_.skeleton.num_dofs();
+    std::vector<double> v{double(m->nq), double(m->nv), double(m->na), double(m->nu), double(nb), double(nd), d->time};
+    auto append = [&](const auto* p, int n) { v.insert(v.end(), p, p + n); };
+    append(d->qpos, m->nq);
+    append(d->qvel, m->nv);
+    append(d->act, m->na);
+    append(d->qacc_warmstart, m->nv);
+    append(d->ctrl, m->nu);
+    append(e.contacts.data(), nb);
+    const KinematicState& p = e.reset_pose;
+    append(p.root_pos.data(), 3);
+    append(p.root_rot.coeffs().data(), 4);
+    append(p.q.data(), nd);
+    append(p.root_lin_vel.data(), 3);
+    append(p.root_ang_vel.data(), 3);
+    append(p.qd.data(), nd);
+    return v;
+  }
+
+  /// Restores a state written by save_state for the same model; throws Error on a size mismatch
+  /// or non-finite values (the env is left unchanged then).
+  void load_state(std::size_t env, const std::vector<double>& v) {
+    Env& e = at(env);
+    const mjModel* m = model_.get();
+    const int nb = desc_.skeleton.num_bodies(), nd = desc_.skeleton.num_dofs();
+    const std::size_t expected = 7 + static_cast<std::size_t>(m->nq + 2 * m->nv + m->na + m->nu + nb + 13 + 2 * nd);
+    require(v.size() == expected && v.size() >= 6 && v[0] == m->nq && v[1] == m->nv && v[2] == m->na && v[3] == m->nu &&
+                v[4] == nb && v[5] == nd,
+            "saved simulator state does not match this model (" + std::to_string(v.size()) + " values, expected " +
+                std::to_string(expected) + ")",
+            {{}, {}, "sim_state"});
+    for (double x : v) require(std::isfinite(x), "saved simulator state has a non-finite value", {{}, {}, "sim_state"});
+    mjData* d = e.data.get();
+    std::size_t k = 6;
+    d->time = v[k++];
+    auto take = [&](auto* p, int n) {
+      for (int i = 0; i < n; ++i) p[i] = static_cast<std::remove_pointer_t<decltype(p)>>(v[k++]);
+    };
+    take(d->qpos, m->nq);
+    take(d->qvel, m->nv);
+    take(d->act, m->na);
+    take(d->qacc_warmstart, m->nv);
+    take(d->ctrl, m->nu);
+    std::vector<std::uint8_t> contacts(static_cast<std::size_t>(nb));
+    take(contacts.data(), nb);
+    KinematicState& p = e.reset_pose;
+    take(p.root_pos.data(), 3);
+    take(p.root_rot.coeffs().data(), 4);
+    p.q.resize(nd);
+    take(p.q.data(), nd);
+    take(p.root_lin_vel.data(), 3);
+    take(p.root_ang_vel.data(), 3);
+    p.qd.resize(nd);
+    take(p.qd.data(), nd);
+    // Body states as after a step (positional quantities only; the solver state is untouched).
+    mj_kinematics(m, d);
+    mj_comPos(m, d);
+    mj_comVel(m, d);
+    read_out(e);
+    e.contacts = std::move(contacts);
+  }
+
  private:
   struct Env {
     mujoco_detail::DataPtr data;
