@@ -1,14 +1,19 @@
-// `maskadapt train-residual` (stage 2: composition or partial tracking on top of a frozen base)
-// and `maskadapt play-residual` (mask / text schedules, BVH export). Residual playback lives here
-// as its own subcommand so the trainer engineer's `play` stays untouched.
+// `maskadapt train-residual` (stage 2: composition or partial tracking on top of a frozen base,
+// --resume continues bit-exactly), `maskadapt play-residual` (mask / text schedules, BVH and
+// viewer-rollout export) and `maskadapt eval-residual` (composition H_norm table or tracking
+// metrics, JSON). Residual playback lives here as its own subcommand so the trainer engineer's
+// `play` stays untouched.
 #include "command_registry.hpp"
 
 #include <maskadapt/core/checkpoint.hpp>
+#include <maskadapt/eval/rollout_file.hpp>
 #include <maskadapt/motion/bvh.hpp>
+#include <maskadapt/motion/synthetic.hpp>
 #include <maskadapt/motion/retarget.hpp>
 #include <maskadapt/tracking/builtin_generator.hpp>
 #include <maskadapt/tracking/text_pool.hpp>
 #include <maskadapt/train/motion_sources.hpp>
+#include <maskadapt/train/residual_eval.hpp>
 #include <maskadapt/train/residual_trainer.hpp>
 #include <maskadapt/train/run_loop.hpp>
 
@@ -16,6 +21,7 @@
 #include <maskadapt/sim/mujoco/humanoid_sim.hpp>
 #endif
 
+#include <filesystem>
 #include <fstream>
 #include <iostream>
 #include <memory>
@@ -26,18 +32,34 @@ using namespace maskadapt;
 using namespace maskadapt::train;
 
 struct Args {
-  std::string task = "composition", method = "ours", base, out = "runs/residual", preset, generator, gain = "scalar";
+  std::string task = "composition", method = "ours", base, out = "runs/residual", preset, config, resume, generator,
+              gain = "scalar";
   std::vector<std::string> new_motion, masks, motions, texts;
   std::string designated = "arms";
-  int envs = -1, threads = -1;
+  int envs = -1, threads = -1, goal_trajectories = -1, sample_every = -1;
   long long iterations = -1, seed = -1;
-  double minutes = -1, switch_rate = -1;
+  double minutes = -1, switch_rate = -1, episode_seconds = -1, term_threshold = -100;
   std::vector<Index> hidden;
 };
 
 std::string data_dir() { return motion_data_dir(MASKADAPT_SOURCE_DIR "/../shared/data"); }
 
-/// Builds the reward sources of a run (shared by training and nothing else).
+/// The default tracking prompts: the arms-related labels of the labelled clips (the shared CMU
+/// clips when present, plus the built-in synthetic clips); the fixed list when none is found.
+std::vector<std::string> default_text_pool(const Skeleton& skel) {
+  std::vector<tracking::LabelledTrajectory> clips;
+  const std::string dir = data_dir() + "/motions/cmu";
+  try {
+    if (std::filesystem::is_directory(dir)) clips = tracking::load_labelled_clips(dir, skel);
+    for (const MotionClip& c : builtin_motion_set("synthetic", data_dir())) clips.push_back(tracking::labelled_from_clip(c, skel));
+    return tracking::arms_text_pool(clips);
+  } catch (const Error& e) {
+    std::cerr << "text pool: " << e.what() << "; using the fixed list\n";
+    return {"raise arms", "wave hands", "punch", "wash self"};
+  }
+}
+
+/// Builds the reward sources of a run.
 ResidualSetup make_setup(const ResidualTrainConfig& c, const std::shared_ptr<MotionLibrary>& base_lib,
                          const std::shared_ptr<MotionLibrary>& new_lib, const std::vector<BodyPart>& obs_parts) {
   ResidualSetup s;
@@ -50,7 +72,8 @@ ResidualSetup make_setup(const ResidualTrainConfig& c, const std::shared_ptr<Mot
   const std::vector<double> w = c.objective_weights;
   if (c.task == "tracking") {
     const PartMask d = PartMask::parse(c.designated, "--designated");
-    s.masks = {d};
+    s.masks = {c.method == "scratch" ? PartMask::all() : d};
+    s.switch_rate = 0;
     s.discriminators.push_back({"imitation", w.size() > 0 ? w[0] : 0.5, tasks::window_rows(obs_parts, ~d), false, from(base_lib), {}});
     return s;
   }
@@ -61,9 +84,8 @@ ResidualSetup make_setup(const ResidualTrainConfig& c, const std::shared_ptr<Mot
                             [set](Rng& r, Index B, MatrixXf& x, MatrixXf& m) { set->sample_negative(r, B, x, m); }};
     s.discriminators.push_back(src);
   } else {  // cml / scratch: fixed region = the first mask; one discriminator per group
-    const PartMask region = c.method == "scratch" ? PartMask::all() : s.masks.front();
     const PartMask adapted = s.masks.front();
-    s.masks = {region};
+    s.masks = {c.method == "scratch" ? PartMask::all() : adapted};
     s.switch_rate = 0;
     s.discriminators.push_back({"adapted", w.size() > 0 ? w[0] : 0.5, tasks::window_rows(obs_parts, adapted), false, from(new_lib), {}});
     s.discriminators.push_back({"rest", w.size() > 1 ? w[1] : 0.5, tasks::window_rows(obs_parts, ~adapted), false, from(base_lib), {}});
@@ -71,34 +93,76 @@ ResidualSetup make_setup(const ResidualTrainConfig& c, const std::shared_ptr<Mot
   return s;
 }
 
+#ifdef MASKADAPT_HAS_MUJOCO
+/// The tracking objective: goal-buffer refills from the generator with prompts from `texts`,
+/// histories from the base motion set.
+TrackingSource make_tracking(const ResidualTrainConfig& c, std::shared_ptr<tracking::BuiltinGenerator> gen,
+                             std::shared_ptr<MotionLibrary> base_lib, std::vector<std::string> texts, double control_dt) {
+  TrackingSource t;
+  t.designated = PartMask::parse(c.designated, "--designated");
+  t.goal_steps = c.goal_steps;
+  t.weight = c.objective_weights.size() > 1 ? c.objective_weights[1] : 0.5;
+  t.sample_every = c.sample_every;
+  t.term_window = std::max<Index>(1, std::llround(c.term_window_s / control_dt));
+  t.term_threshold = c.term_threshold;
+  const Index frames = std::llround(c.rl.env.episode_seconds / control_dt) + c.goal_steps + 1;
+  const int n = c.goal_trajectories;
+  t.refill = [gen, base_lib, texts, frames, n](Rng& r, tracking::GoalBuffer& b) {
+    b.refill(*gen, texts, [&](Rng& rr) {
+      const ClipTime ct = base_lib->sample(rr, true, static_cast<double>(gen->history_frames()) / 30.0);
+      return tracking::trajectory_from_library(*base_lib, ct.clip, ct.time - static_cast<double>(gen->history_frames() - 1) / 30.0,
+                                               gen->history_frames());
+    }, n, frames, r);
+  };
+  return t;
+}
+#endif
+
 void run_train_residual(const Args& a) {
 #ifndef MASKADAPT_HAS_MUJOCO
   (void)a;
   throw Error("this build has no MuJoCo; train-residual needs the maskadapt::mujoco target", {{}, std::nullopt, "train-residual"});
 #else
   ResidualTrainConfig c;
-  c.rl = a.preset.empty() ? cpu_preset() : preset(a.preset, "--preset");
-  c.task = a.task;
-  c.method = a.method;
-  c.base_checkpoint = a.base;
-  c.gain = a.gain;
-  c.designated = a.designated;
-  c.generator = a.generator;
-  if (!a.new_motion.empty()) c.new_motions = a.new_motion;
-  if (!a.masks.empty()) c.masks = a.masks;
-  if (!a.motions.empty()) c.rl.env.motions = a.motions;
-  if (a.envs > 0) c.rl.env.num_envs = a.envs;
-  if (a.threads >= 0) c.rl.run.threads = a.threads;
+  std::unique_ptr<Checkpoint> resume;
+  if (!a.resume.empty()) {  // the run's own config; only budgets and the output directory may change
+    resume = std::make_unique<Checkpoint>(load_checkpoint(a.resume));
+    c = residual_config_from_json(nlohmann::json::parse(resume->get_string("residual_config")), a.resume);
+  } else {
+    c.rl = a.config.empty() ? (a.preset.empty() ? cpu_preset() : preset(a.preset, "--preset")) : load_config(a.config);
+    c.task = a.task;
+    c.method = a.method;
+    c.base_checkpoint = a.base;
+    c.gain = a.gain;
+    c.designated = a.designated;
+    c.generator = a.generator;
+    if (!a.new_motion.empty()) c.new_motions = a.new_motion;
+    if (!a.masks.empty()) c.masks = a.masks;
+    if (a.envs > 0) c.rl.env.num_envs = a.envs;
+    if (a.threads >= 0) c.rl.run.threads = a.threads;
+    if (a.seed >= 0) c.rl.run.seed = static_cast<std::uint64_t>(a.seed);
+    if (a.switch_rate >= 0) c.switch_rate = a.switch_rate;
+    if (a.episode_seconds > 0) c.rl.env.episode_seconds = a.episode_seconds;
+    if (a.goal_trajectories > 0) c.goal_trajectories = a.goal_trajectories;
+    if (a.sample_every > 0) c.sample_every = a.sample_every;
+    if (a.term_threshold > -100) c.term_threshold = a.term_threshold;
+    if (!a.hidden.empty()) c.residual_hidden = a.hidden;
+    require(c.method == "scratch" || !a.base.empty(), "a base checkpoint is needed (or --method scratch)", {{}, {}, "--base"});
+    if (c.method != "scratch") {
+      // The frozen base's architecture and, unless --motions, its motion set A come from its checkpoint.
+      const BaseTrainConfig bc = config_from_string(load_checkpoint(a.base).get_string("config"), a.base + " (config)");
+      c.rl.net.actor_hidden = bc.net.actor_hidden;
+      c.rl.net.activation = bc.net.activation;
+      c.rl.net.init_log_std = bc.net.init_log_std;
+      c.rl.env.motions = bc.env.motions;
+    }
+    if (!a.motions.empty()) c.rl.env.motions = a.motions;
+  }
   if (a.iterations >= 0) c.rl.run.iterations = a.iterations;
   if (a.minutes >= 0) c.rl.run.minutes = a.minutes;
   if (a.minutes > 0 && a.iterations < 0) c.rl.run.iterations = 0;
-  if (a.seed >= 0) c.rl.run.seed = static_cast<std::uint64_t>(a.seed);
-  if (a.switch_rate >= 0) c.switch_rate = a.switch_rate;
-  if (!a.hidden.empty()) c.residual_hidden = a.hidden;
   c.rl.run.out_dir = a.out;
   c.validate();
-  const bool scratch = c.method == "scratch";
-  require(scratch || !a.base.empty(), "a base checkpoint is needed (or --method scratch)", {{}, {}, "--base"});
   require(c.task == "tracking" || !c.new_motions.empty(), "composition needs --new-motion", {{}, {}, "--new-motion"});
 
   auto base_lib = load_motion_library(c.rl.env.motions, data_dir());
@@ -106,50 +170,29 @@ void run_train_residual(const Args& a) {
   ThreadPool pool(static_cast<std::size_t>(c.rl.run.threads));
   MujocoHumanoidSim sim(static_cast<std::size_t>(c.rl.env.num_envs), pool);
   const Index obs_dim = observation_dim(sim.skeleton()), A = sim.skeleton().num_dofs();
-  rl::GaussianActor<float> base;
-  if (scratch) {  // from scratch: a zero base, every DoF residual
-    rl::ActorCriticConfig ac;
-    ac.policy_input_dim = obs_dim + kNumParts;
-    ac.critic_input_dim = obs_dim;
-    ac.action_dim = A;
-    ac.actor_hidden = {8};
-    Rng r(0);
-    base = rl::GaussianActor<float>(ac, r);
-    base.mean_net.params().setZero();
-    c.masks = {"all"};
-  } else {
-    base = load_base_actor(load_checkpoint(a.base), obs_dim, A);
-  }
+  rl::GaussianActor<float> base = c.method == "scratch" || resume ? base_actor_like(c, obs_dim, A)
+                                                                    : load_base_actor(load_checkpoint(a.base), obs_dim, A);
   ResidualSetup setup = make_setup(c, base_lib, new_lib, observation_parts(sim.skeleton()));
   if (c.task == "tracking") {
     require(!c.generator.empty(), "tracking needs --generator (train one with `maskadapt train-generator`)", {{}, {}, "--generator"});
     auto gen = std::make_shared<tracking::BuiltinGenerator>(tracking::BuiltinGenerator::load(c.generator, sim.skeleton()));
-    std::vector<std::string> pool_texts = a.texts;
-    if (pool_texts.empty()) pool_texts = {"raise arms", "wave hands", "punch", "wash self"};
-    TrackingSource t;
-    t.designated = PartMask::parse(c.designated, "--designated");
-    t.goal_steps = c.goal_steps;
-    t.weight = c.objective_weights.size() > 1 ? c.objective_weights[1] : 0.5;
-    t.sample_every = c.sample_every;
-    t.term_window = std::max<Index>(1, std::llround(c.term_window_s / sim.control_dt()));
-    t.term_threshold = c.term_threshold;
-    const Index frames = std::llround(c.rl.env.episode_seconds / sim.control_dt()) + c.goal_steps + 1;
-    const int n = c.goal_trajectories;
-    t.refill = [gen, base_lib, pool_texts, frames, n](Rng& r, tracking::GoalBuffer& b) {
-      b.refill(*gen, pool_texts, [&](Rng& rr) {
-        const ClipTime ct = base_lib->sample(rr);
-        return tracking::trajectory_from_library(*base_lib, ct.clip, ct.time, gen->history_frames());
-      }, n, frames, r);
-    };
-    setup.tracking = t;
+    std::vector<std::string> texts = a.texts.empty() ? default_text_pool(sim.skeleton()) : a.texts;
+    std::cout << "train-residual: text pool (" << texts.size() << "):";
+    for (const auto& t : texts) std::cout << " '" << t << "'";
+    std::cout << "\n";
+    setup.tracking = make_tracking(c, gen, base_lib, texts, sim.control_dt());
   }
   std::cout << "train-residual: task " << c.task << ", method " << c.method << ", masks";
   for (const auto& m : setup.masks) std::cout << " " << m.to_string();
   std::cout << ", " << setup.discriminators.size() << " discriminator(s), out " << c.rl.run.out_dir << "\n";
   ResidualTrainer<MujocoHumanoidSim> trainer(sim, library_reset_sampler(base_lib), base, std::move(setup), c, &pool);
+  if (resume) {
+    trainer.load(*resume);
+    std::cout << "train-residual: resumed at iteration " << trainer.iteration() << " from " << a.resume << "\n";
+  }
   std::filesystem::create_directories(c.rl.run.out_dir);
   std::ofstream(c.rl.run.out_dir + "/residual_config.json") << to_json(c).dump(2) << "\n";
-  run_training(trainer);
+  run_training(trainer, RunOptions{static_cast<bool>(resume)});
   std::cout << "train-residual: done, " << trainer.iteration() << " iterations; checkpoint " << c.rl.run.out_dir
             << "/checkpoint.bin";
   if (c.task == "tracking") std::cout << "; last tracking reward " << trainer.last_tracking_reward();
@@ -158,63 +201,75 @@ void run_train_residual(const Args& a) {
 }
 
 struct PlayArgs {
-  std::string checkpoint, mask_schedule = "0:lower_body", text, bvh, generator;
+  std::string checkpoint, mask_schedule = "0:lower_body", text, bvh, rollout, generator;
   double seconds = 10.0;
   long long seed = 1;
 };
 
-void run_play(const PlayArgs& a) {
+void run_play(const PlayArgs& a, const std::string& command_line) {
 #ifndef MASKADAPT_HAS_MUJOCO
   (void)a;
+  (void)command_line;
   throw Error("this build has no MuJoCo; play-residual needs the maskadapt::mujoco target", {{}, std::nullopt, "play-residual"});
 #else
+  require(!a.bvh.empty() || !a.rollout.empty(), "nothing to write: give --bvh and/or --rollout", {{}, {}, "play-residual"});
   const Checkpoint ck = load_checkpoint(a.checkpoint);
-  const ResidualTrainConfig c = residual_config_from_json(nlohmann::json::parse(ck.get_string("residual_config")), a.checkpoint);
   MujocoHumanoidSim sim(1);
   const Skeleton& skel = sim.skeleton();
+  ResidualTrainConfig c;
+  const adapt::ResidualPolicy<float> pol = residual_policy_from_checkpoint(ck, skel, &c);
   const Index obs_dim = observation_dim(skel), A = skel.num_dofs();
-  adapt::ResidualConfig rc;
-  rc.hidden = c.residual_hidden;
-  rc.activation = residual_activation(c.rl.net.activation);
-  rc.gain = adapt::gain_mode_from_name(c.gain);
   const PartMask designated = PartMask::parse(c.designated);
-  if (c.task == "tracking") rc.goal_dim = tracking::goal_dim(skel, designated, c.goal_steps);
-  rl::ActorCriticConfig ac;
-  ac.policy_input_dim = obs_dim + kNumParts;
-  ac.critic_input_dim = obs_dim;
-  ac.action_dim = A;
-  ac.actor_hidden = c.method == "scratch" ? std::vector<Index>{8} : c.rl.net.actor_hidden;
-  ac.activation = rc.activation;
-  Rng init(0);
-  adapt::ResidualPolicy<float> pol(rl::GaussianActor<float>(ac, init), obs_dim, action_parts(skel), rc, init);
-  pol.load(ck, true);
-  const auto schedule = MaskSampler::scheduled(c.task == "tracking" ? "0:" + c.designated : a.mask_schedule);
+  const bool tracking_task = c.task == "tracking";
+  // the mask the policy runs with: tracking adapts the designated parts; scratch drives every DoF
+  const std::string mask_spec = c.method == "scratch" ? "0:all" : tracking_task ? "0:" + designated.to_string() : a.mask_schedule;
+  const auto schedule = MaskSampler::scheduled(mask_spec);
   auto lib = load_motion_library(c.rl.env.motions, data_dir());
   Rng rng(static_cast<std::uint64_t>(a.seed));
-  sim.reset(0, lib->state(0, 4 * kAmpFrameDt));
-  const PartElements pe(observation_parts(skel));
-  const auto bodies = tracking::designated_bodies(skel, designated);
+  const std::vector<int> bodies = tracking::designated_bodies(skel, designated);
   std::unique_ptr<tracking::BuiltinGenerator> gen;
   tracking::Trajectory targets;
-  const Index steps = std::llround(a.seconds / sim.control_dt());
-  if (c.task == "tracking") {
+  std::vector<tracking::TimedText> texts;
+  const Index steps = std::max<Index>(1, std::llround(a.seconds / sim.control_dt()));
+  const double t0 = 4 * kAmpFrameDt;
+  sim.reset(0, lib->state(0, t0));
+  if (tracking_task) {
     require(!a.generator.empty() || !c.generator.empty(), "tracking playback needs a generator", {{}, {}, "--generator"});
     gen = std::make_unique<tracking::BuiltinGenerator>(tracking::BuiltinGenerator::load(a.generator.empty() ? c.generator : a.generator, skel));
-    const auto texts = tracking::parse_text_schedule(a.text.empty() ? "0:raise arms" : a.text);
-    targets = tracking::rollout(*gen, texts, tracking::trajectory_from_library(*lib, 0, 0.0, gen->history_frames()),
+    texts = tracking::parse_text_schedule(a.text.empty() ? "0:raise arms" : a.text);
+    const Index H = gen->history_frames();
+    // the history ends at the reset pose; the generator runs online on the text schedule
+    targets = tracking::rollout(*gen, texts, tracking::trajectory_from_library(*lib, 0, t0 - static_cast<double>(H - 1) / 30.0, H),
                                 steps + c.goal_steps + 1, rng);
   }
   MotionClip out;
   out.name = "play_residual";
   out.resize(static_cast<int>(steps), A);
-  MatrixXf obs(obs_dim, 1), x, mu, goals(rc.goal_dim, 1);
+  eval::Rollout roll = eval::make_rollout(sim.description(), 1.0 / sim.control_dt());
+  roll.metadata.command = command_line;
+  roll.metadata.checkpoint = a.checkpoint;
+  roll.metadata.seed = a.seed;
+  roll.metadata.extra["task"] = c.task;
+  roll.metadata.extra["method"] = c.method;
+  if (tracking_task) {
+    roll.metadata.extra["designated"] = designated.to_string();
+    for (const auto& t : texts) roll.texts.push_back({t.start_s, t.text});
+    roll.goals = eval::RolloutGoals{bodies, {}};
+  } else {
+    roll.metadata.extra["mask_schedule"] = mask_spec;
+  }
+  MatrixXf obs(obs_dim, 1), x, mu, goals(pol.goal_dim(), 1);
   adapt::ResidualWorkspace<float> ws;
+  const PartElements pe(observation_parts(skel));
   double track_err = 0;
+  PartMask last = PartMask::none();
   for (Index t = 0; t < steps; ++t) {
     const double time = static_cast<double>(t) * sim.control_dt();
     const std::vector<PartMask> m{schedule.sample(rng, time)};
+    if (t == 0 || m[0] != last) std::cout << "play-residual: t=" << time << " s, adapted parts " << m[0].to_string() << "\n";
+    last = m[0];
     compute_observation(skel, sim.body_states(0), obs.col(0));
-    if (rc.goal_dim > 0) tracking::extract_goals(skel, bodies, targets, t, c.goal_steps, goals.col(0));
+    if (pol.goal_dim() > 0) tracking::extract_goals(skel, bodies, targets, t, c.goal_steps, goals.col(0));
     pol.build_input(pe, obs, m, goals, x, ws);
     pol.mean(x, m, mu, ws);
     sim.step(mu);
@@ -222,14 +277,123 @@ void run_play(const PlayArgs& a) {
     out.root_pos.col(static_cast<int>(t)) = b.pos.col(0);
     out.set_rot(static_cast<int>(t), b.rot[0]);
     out.q.col(static_cast<int>(t)) = sim.joint_angles(0);
-    if (c.task == "tracking") track_err += tracking::position_error(bodies, targets, t + 1, b);
+    eval::add_frame(roll, b, m[0], sim.contacts(0));
+    if (tracking_task) {
+      track_err += tracking::position_error(bodies, targets, t + 1, b);
+      // the targets as the character should reach them: root-relative heading-frame positions
+      // placed at the simulated root (the generated root drifts from the simulated one)
+      Matrix3X g(3, static_cast<Index>(bodies.size()));
+      const Quat Hs = heading_rotation(b.rot[0]);
+      for (std::size_t j = 0; j < bodies.size(); ++j) {
+        const int bi = bodies[j];
+        g.col(static_cast<Index>(j)) = b.pos.col(0) + Hs * tracking::heading_local(targets.body_pos.block<3, 1>(3 * bi, t + 1),
+                                                                                   targets.root_pos.col(t + 1),
+                                                                                   targets.root_rot[static_cast<std::size_t>(t + 1)]);
+      }
+      roll.goals->targets.push_back(g);
+    }
   }
   std::cout << "play-residual: " << steps << " steps, final root height " << sim.body_states(0).pos(2, 0) << " m";
-  if (c.task == "tracking") std::cout << ", mean tracking error " << track_err / static_cast<double>(steps) << " m";
+  if (tracking_task) std::cout << ", mean tracking error " << track_err / static_cast<double>(steps) << " m";
   std::cout << "\n";
   if (!a.bvh.empty()) {
     bvh::write(a.bvh, clip_to_bvh(out, skel));
     std::cout << "wrote " << a.bvh << "\n";
+  }
+  if (!a.rollout.empty()) {
+    eval::write_rollout(roll, a.rollout);
+    std::cout << "wrote " << a.rollout << " (viewer rollout)\n";
+  }
+#endif
+}
+
+struct EvalArgs {
+  std::string checkpoint, task, out, generator, mask;
+  std::vector<std::string> new_motion, motions, prompts;
+  int envs = 10, repeats = 3, num_prompts = 10;
+  long long frames = 1000, seed = 1;
+  double seconds = 5.0, threshold_per_body = 0.1;
+  bool stochastic = false;
+};
+
+void run_eval(const EvalArgs& a) {
+#ifndef MASKADAPT_HAS_MUJOCO
+  (void)a;
+  throw Error("this build has no MuJoCo; eval-residual needs the maskadapt::mujoco target", {{}, std::nullopt, "eval-residual"});
+#else
+  const Checkpoint ck = load_checkpoint(a.checkpoint);
+  ResidualTrainConfig c;
+  {
+    MujocoHumanoidSim probe(1);
+    (void)residual_policy_from_checkpoint(ck, probe.skeleton(), &c);
+  }
+  const std::string task = a.task.empty() ? c.task : a.task;
+  require(task == c.task, "this checkpoint was trained for " + c.task + ", not " + task, {{}, {}, "--task"});
+  auto base_lib = load_motion_library(a.motions.empty() ? c.rl.env.motions : a.motions, data_dir());
+  nlohmann::json j;
+  j["checkpoint"] = a.checkpoint;
+  j["task"] = task;
+  j["method"] = c.method;
+  if (task == "composition") {
+    auto new_lib = load_motion_library(a.new_motion.empty() ? c.new_motions : a.new_motion, data_dir());
+    ThreadPool pool(static_cast<std::size_t>(c.rl.run.threads));
+    MujocoHumanoidSim sim(static_cast<std::size_t>(a.envs), pool);
+    const auto pol = residual_policy_from_checkpoint(ck, sim.skeleton());
+    // ours: every training mask; cml / scratch: the adapted group (the first mask)
+    std::vector<PartMask> masks;
+    if (!a.mask.empty()) masks = {PartMask::parse(a.mask, "--mask")};
+    else if (c.method == "ours")
+      for (const auto& m : c.masks) masks.push_back(PartMask::parse(m, "masks"));
+    else masks = {PartMask::parse(c.masks.front(), "masks")};
+    const std::optional<PartMask> run_mask = c.method == "scratch" ? std::optional<PartMask>(PartMask::all()) : std::nullopt;
+    CompositionEvalOptions opt;
+    opt.frames = a.frames;
+    opt.threshold_per_body = a.threshold_per_body;
+    opt.deterministic = !a.stochastic;
+    opt.seed = static_cast<std::uint64_t>(a.seed);
+    opt.episode_seconds = c.rl.env.episode_seconds;
+    std::vector<CompositionResult> rows;
+    for (PartMask m : masks) {
+      rows.push_back(evaluate_composition(sim, pol, m, *base_lib, *new_lib, library_reset_sampler(base_lib), std::nullopt, opt, &pool,
+                                          run_mask));
+    }
+    std::cout << "eval-residual composition: " << a.envs << " envs x " << a.frames << " frames, threshold "
+              << a.threshold_per_body << " m per body\n"
+              << format_composition_table(rows);
+    j["envs"] = a.envs;
+    j["frames"] = a.frames;
+    j["threshold_per_body_m"] = a.threshold_per_body;
+    j["rows"] = nlohmann::json::array();
+    for (const auto& r : rows) j["rows"].push_back(to_json(r));
+  } else {
+    MujocoHumanoidSim sim(static_cast<std::size_t>(a.repeats));
+    const auto pol = residual_policy_from_checkpoint(ck, sim.skeleton());
+    const std::string gpath = a.generator.empty() ? c.generator : a.generator;
+    require(!gpath.empty(), "tracking evaluation needs a generator", {{}, {}, "--generator"});
+    auto gen = tracking::BuiltinGenerator::load(gpath, sim.skeleton());
+    TrackingEvalOptions opt;
+    opt.prompts = a.prompts.empty() ? default_text_pool(sim.skeleton()) : a.prompts;
+    if (static_cast<int>(opt.prompts.size()) > a.num_prompts) opt.prompts.resize(static_cast<std::size_t>(a.num_prompts));
+    opt.repeats = a.repeats;
+    opt.seconds = a.seconds;
+    opt.deterministic = !a.stochastic;
+    opt.seed = static_cast<std::uint64_t>(a.seed);
+    const FallCriteria fall = FallCriteria::for_skeleton(sim.skeleton(), {"L_Ankle", "R_Ankle", "L_Toe", "R_Toe", "L_Wrist", "R_Wrist"},
+                                                         "Head", c.rl.env.termination_height);
+    const auto ev = evaluate_tracking(sim, pol, gen, PartMask::parse(c.designated), c.goal_steps, *base_lib, fall, opt,
+                                      c.method == "scratch" ? std::optional<PartMask>(PartMask::all()) : std::nullopt);
+    std::cout << "eval-residual tracking: " << opt.prompts.size() << " prompts x " << a.seconds << " s x " << a.repeats
+              << " repeats (designated " << c.designated << ")\n"
+              << format_tracking_table(ev);
+    j["seconds"] = a.seconds;
+    j["repeats"] = a.repeats;
+    j["result"] = to_json(ev);
+  }
+  if (!a.out.empty()) {
+    std::ofstream f(a.out);
+    require(static_cast<bool>(f), "cannot open for writing", {a.out, std::nullopt, {}});
+    f << j.dump(2) << "\n";
+    std::cout << "wrote " << a.out << "\n";
   }
 #endif
 }
@@ -256,6 +420,12 @@ const bool registered = maskadapt::cli::register_command([](CLI::App& app) {
   c->add_option("--minutes", a->minutes, "wall-clock budget");
   c->add_option("--seed", a->seed, "master seed");
   c->add_option("--out", a->out, "output directory");
+  c->add_option("--config", a->config, "stage-1-format JSON for the run/env/ppo/disc/net sections (e.g. configs/smoke.json)");
+  c->add_option("--resume", a->resume, "continue a train-residual checkpoint (its own config; budgets and --out may change)");
+  c->add_option("--episode-seconds", a->episode_seconds, "episode length limit (s)");
+  c->add_option("--goal-trajectories", a->goal_trajectories, "tracking: trajectories per goal-buffer refill");
+  c->add_option("--sample-every", a->sample_every, "tracking: refill the goal buffer every N iterations");
+  c->add_option("--term-threshold", a->term_threshold, "tracking: windowed mean tracking reward that ends an episode");
   c->callback([a] { run_train_residual(*a); });
 
   auto p = std::make_shared<PlayArgs>();
@@ -266,8 +436,35 @@ const bool registered = maskadapt::cli::register_command([](CLI::App& app) {
   q->add_option("--generator", p->generator, "tracking: generator checkpoint (default: the one trained with)");
   q->add_option("--seconds", p->seconds, "length");
   q->add_option("--bvh", p->bvh, "write the motion as BVH");
+  q->add_option("--rollout", p->rollout, "write the viewer rollout JSON (masks, contacts, texts, goals)");
   q->add_option("--seed", p->seed, "seed");
-  q->callback([p] { run_play(*p); });
+  q->callback([p] {
+    std::string cmd = "maskadapt play-residual " + p->checkpoint + " --seconds " + std::to_string(p->seconds) +
+                      " --seed " + std::to_string(p->seed);
+    if (!p->text.empty()) cmd += " --text \"" + p->text + "\"";
+    else cmd += " --mask-schedule \"" + p->mask_schedule + "\"";
+    run_play(*p, cmd);
+  });
+
+  auto e = std::make_shared<EvalArgs>();
+  CLI::App* v = app.add_subcommand("eval-residual", "Evaluate a residual checkpoint: composition H_norm or tracking metrics");
+  v->add_option("checkpoint", e->checkpoint, "train-residual checkpoint")->required();
+  v->add_option("--task", e->task, "composition | tracking (default: the checkpoint's)");
+  v->add_option("--mask", e->mask, "composition: evaluate this adapted mask (default: each training mask)");
+  v->add_option("--new-motion", e->new_motion, "composition: new motion set B (default: the training set)");
+  v->add_option("--motions", e->motions, "base motion set A / reference walk (default: the training set)");
+  v->add_option("--envs", e->envs, "composition: envs (default 10)");
+  v->add_option("--frames", e->frames, "composition: frames per env (default 1000)");
+  v->add_option("--threshold", e->threshold_per_body, "composition: visitation threshold per body (m, default 0.1)");
+  v->add_option("--prompts", e->prompts, "tracking: prompts (default: the arms text pool)");
+  v->add_option("--num-prompts", e->num_prompts, "tracking: at most this many prompts (default 10)");
+  v->add_option("--seconds", e->seconds, "tracking: seconds per episode (default 5)");
+  v->add_option("--repeats", e->repeats, "tracking: repeats per prompt (default 3)");
+  v->add_option("--generator", e->generator, "tracking: generator checkpoint (default: the one trained with)");
+  v->add_flag("--stochastic", e->stochastic, "sample actions instead of the policy mean");
+  v->add_option("--seed", e->seed, "seed");
+  v->add_option("--out", e->out, "write the results as JSON");
+  v->callback([e] { run_eval(*e); });
 });
 
 }  // namespace

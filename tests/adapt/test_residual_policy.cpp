@@ -270,3 +270,36 @@ TEST(Composition, ConditioningChangesTheDiscriminatorOutput) {
   for (int i = 0; i < 200; ++i) t.update(feats, real_c, feats, fake_c);
   EXPECT_GT(t.logits(feats, real_c).mean(), t.logits(feats, fake_c).mean() + 1.0f);
 }
+
+// CML-style baseline: with masked_base_input = false the base runs on the full observation with
+// the null mask, so its action does not depend on the adapted mask (ours: it does, via s̄ and m);
+// the residual input still carries the mask bits.
+TEST(ResidualPolicy, UnmaskedBaseInputIgnoresTheMask) {
+  Rng rng(3);
+  adapt::ResidualConfig rc;
+  rc.hidden = {16};
+  rc.masked_base_input = false;
+  const adapt::ResidualPolicy<float> cml(make_base(rng), kObs, dof_parts(), rc, rng);
+  const auto ours = make_policy();
+  const PartElements pe(obs_parts());
+  MatrixXf obs = MatrixXf::Random(kObs, 1);
+  obs = obs.replicate(1, 2).eval();
+  const std::vector<PartMask> masks = {PartMask::none(), PartMask::of(BodyPart::LeftArm)};
+  adapt::ResidualWorkspace<float> ws;
+  MatrixXf x_cml, x_ours;
+  cml.build_input(pe, obs, masks, MatrixXf(), x_cml, ws);
+  ours.build_input(pe, obs, masks, MatrixXf(), x_ours, ws);
+  // cml: identical base actions for both masks, equal to the base on [s ; 0]
+  EXPECT_TRUE((x_cml.middleRows(kObs, kAct).col(0).array() == x_cml.middleRows(kObs, kAct).col(1).array()).all());
+  const std::vector<PartMask> null_masks(2, PartMask::none());
+  const MatrixXf full_in = policy_input<float>(pe, obs, null_masks);
+  MatrixXf base_mu, scratch;
+  nn::InferenceWorkspace<float> bws;
+  cml.base().mean(full_in, base_mu, bws, scratch);
+  EXPECT_TRUE((x_cml.middleRows(kObs, kAct).array() == base_mu.array()).all());
+  // ours: masking the left arm changes the base action
+  EXPECT_FALSE((x_ours.middleRows(kObs, kAct).col(0).array() == x_ours.middleRows(kObs, kAct).col(1).array()).all());
+  // both carry the mask bits
+  EXPECT_EQ(x_cml(kObs + kAct + 1, 1), 1.0f);
+  EXPECT_EQ(x_cml(kObs + kAct + 1, 0), 0.0f);
+}

@@ -202,3 +202,100 @@ TEST(ResidualTrainer, TrackingRunConsumesGoalsAndRewardsTheDesignatedParts) {
   EXPECT_GT(r, 0.0);
   EXPECT_LE(r, 1.0);
 }
+
+namespace {
+
+ResidualSetup tracking_setup(const Data& d, const std::vector<BodyPart>& parts) {
+  const PartMask arms = PartMask::parse("arms");
+  ResidualSetup s;
+  s.masks = {arms};
+  const MotionLibrary* base = &d.base;
+  s.discriminators.push_back({"imitation", 0.5, tasks::window_rows(parts, ~arms), false,
+                              [base](Rng& r, Index B, MatrixXf& w, MatrixXf&) { w = base->sample_amp_windows(r, static_cast<int>(B)); }, {}});
+  auto gen = std::make_shared<TinyGenerator>();
+  TrackingSource t;
+  t.designated = arms;
+  t.goal_steps = 2;
+  t.sample_every = 3;  // a refill happens inside the resumed half
+  t.term_window = 4;
+  t.term_threshold = 0.5;  // high: the windowed termination fires during these few iterations
+  t.refill = [gen, base](Rng& r, tracking::GoalBuffer& b) {
+    b.refill(*gen, {"raise arms", "wave hands"},
+             [base](Rng& rr) { return tracking::trajectory_from_library(*base, 0, rr.uniform(0.0, 1.0), 1); }, 3, 40, r);
+  };
+  s.tracking = t;
+  return s;
+}
+
+}  // namespace
+
+// Stage-2 resume: 2 iterations, checkpoint, a fresh trainer loads it and runs 2 more — the
+// networks, optimiser moments and the next statistics equal those of 4 uninterrupted iterations,
+// bit for bit (the tiny sim saves its state).
+TEST(ResidualTrainer, ResumeContinuesBitExactly) {
+  for (const std::string task : {"composition", "tracking"}) {
+    Data d;
+    const auto fall = [](const Skeleton& s) { return FallCriteria::for_skeleton(s, {"l_leg", "r_leg"}, "head", 0.8); };
+    auto make = [&](TinyWalkerSim& sim) {
+      const auto parts = observation_parts(sim.skeleton());
+      return std::make_unique<ResidualTrainer<TinyWalkerSim>>(
+          sim, upright(sim.skeleton()), tiny_base(sim.skeleton()),
+          task == "tracking" ? tracking_setup(d, parts) : composition_setup(d, "ours", parts), tiny_config(task, "ours"),
+          nullptr, fall(sim.skeleton()));
+    };
+    TinyWalkerSim sim_a(4), sim_b(4);
+    auto straight = make(sim_a);
+    std::vector<IterationStats> ref;
+    for (int i = 0; i < 4; ++i) ref.push_back(straight->iterate());
+
+    auto first = make(sim_b);
+    first->iterate();
+    first->iterate();
+    Checkpoint ck;
+    first->save(ck);
+    TinyWalkerSim sim_c(4);
+    auto resumed = make(sim_c);
+    resumed->load(ck);
+    EXPECT_EQ(resumed->iteration(), 2);
+    for (int i = 2; i < 4; ++i) {
+      const IterationStats st = resumed->iterate();
+      EXPECT_EQ(st.iteration, ref[static_cast<std::size_t>(i)].iteration) << task;
+      EXPECT_EQ(st.policy_loss, ref[static_cast<std::size_t>(i)].policy_loss) << task << " iteration " << i + 1;
+      EXPECT_EQ(st.disc_loss, ref[static_cast<std::size_t>(i)].disc_loss) << task << " iteration " << i + 1;
+      EXPECT_EQ(st.disc_reward, ref[static_cast<std::size_t>(i)].disc_reward) << task << " iteration " << i + 1;
+      EXPECT_EQ(st.extra, ref[static_cast<std::size_t>(i)].extra) << task << " iteration " << i + 1;
+    }
+    EXPECT_TRUE(same_bits(resumed->policy().residual().mean_net.params(), straight->policy().residual().mean_net.params())) << task;
+    EXPECT_TRUE(same_bits(resumed->policy().gain().params(), straight->policy().gain().params())) << task;
+    Checkpoint a, b;
+    straight->save(a);
+    resumed->save(b);
+    for (const std::string sec : {"critic/params", "disc/0/params", "state/actor/0", "state/critic", "state/disc/0/block"})
+      EXPECT_TRUE(same_bits(a.get_vector<float>(sec), b.get_vector<float>(sec))) << task << " " << sec;
+    if (task == "tracking") {
+      double terminations = 0;
+      for (const auto& st : ref) terminations += st.extra.at("tracking_terminations");
+      EXPECT_GT(terminations, 0) << "the windowed termination never fired; the test would not cover its reset";
+    }
+  }
+}
+
+// The windowed tracking termination physically resets the env: its episode step counter goes
+// back to 0 (and the pose to an RSI pose), not only the goal trajectory.
+TEST(ResidualTrainer, TrackingTerminationResetsTheEnv) {
+  Data d;
+  TinyWalkerSim sim(4);
+  const auto parts = observation_parts(sim.skeleton());
+  ResidualSetup s = tracking_setup(d, parts);
+  s.tracking->term_threshold = 2.0;  // exp(−e) ≤ 1 < 2: fires as soon as the window is full
+  s.tracking->term_window = 3;
+  auto cfg = tiny_config("tracking", "ours");
+  cfg.rl.env.episode_seconds = 100.0;  // no truncation
+  cfg.rl.env.early_termination = false;  // no falls
+  ResidualTrainer<TinyWalkerSim> tr(sim, upright(sim.skeleton()), tiny_base(sim.skeleton()), s, cfg, nullptr,
+                                    FallCriteria::for_skeleton(sim.skeleton(), {"l_leg", "r_leg"}, "head", 0.8));
+  const IterationStats st = tr.iterate();  // horizon 8: every env ends at steps 3 and 6
+  EXPECT_EQ(st.extra.at("tracking_terminations"), 4 * 2);
+  for (long long steps : tr.task().episode_steps()) EXPECT_EQ(steps, 2);  // 8 − 6 steps since the last reset
+  EXPECT_TRUE(st.extra.count("tracking_reward"));
+}

@@ -65,6 +65,10 @@ struct ResidualConfig {
   double init_gain = 1.0;    ///< w at step 0 (1 ⇒ composite == base)
   Index goal_dim = 0;        ///< extra goal features g appended to the residual input (tracking)
   bool normalize_inputs = true;
+  /// true: the base sees the masked observation [s̄ ; m] (ours: the mask-invariant base ignores
+  /// the adapted parts). false: it sees the full [s ; 0] (null mask) — the CML-style baseline,
+  /// whose base reacts to the adapted parts' state.
+  bool masked_base_input = true;
 };
 
 /// DoF selector M_m (action_dim × 1): 1 on DoFs whose part is in m.
@@ -181,13 +185,21 @@ class ResidualPolicy {
       require(goals.rows() == cfg_.goal_dim && goals.cols() == B,
               "goals must be (" + std::to_string(cfg_.goal_dim) + " × " + std::to_string(B) + ")", {{}, {}, "residual.goals"});
     w.base_in.resize(obs_dim_ + kNumParts, B);
-    build_policy_input<T>(part_elements, obs, masks, w.base_in);
+    if (cfg_.masked_base_input) {
+      build_policy_input<T>(part_elements, obs, masks, w.base_in);
+    } else {
+      w.base_in.topRows(obs_dim_) = obs;
+      w.base_in.bottomRows(kNumParts).setZero();
+    }
     w.base_mu.resize(A, B);
     base_.mean(w.base_in, w.base_mu, w.base_ws, w.scratch);
     x.resize(input_dim(), B);
     x.topRows(obs_dim_) = obs;
     x.middleRows(obs_dim_, A) = w.base_mu;
-    x.middleRows(obs_dim_ + A, kNumParts) = w.base_in.bottomRows(kNumParts);
+    for (Index j = 0; j < B; ++j) {
+      const auto bits = masks[static_cast<std::size_t>(j)].template as_array<T>();
+      for (int p = 0; p < kNumParts; ++p) x(obs_dim_ + A + p, j) = bits[static_cast<std::size_t>(p)];
+    }
     if (cfg_.goal_dim > 0) x.bottomRows(cfg_.goal_dim) = goals;
   }
 

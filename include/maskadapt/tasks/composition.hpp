@@ -100,6 +100,7 @@ class EpisodeMasks {
   /// Overrides env e's mask (play / evaluation schedules).
   void set(Index e, PartMask m) { masks_[static_cast<std::size_t>(e)] = m; }
   std::vector<Rng>& rngs() { return rngs_; }
+  const std::vector<Rng>& rngs() const { return rngs_; }
 
  private:
   PartMask draw(Index e) {

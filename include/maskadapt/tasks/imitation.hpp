@@ -172,6 +172,16 @@ class ImitationTask {
     build_policy_input();
   }
 
+  /// Ends env e's episode now (a task-specific early termination decided by the caller, e.g.
+  /// stage-2 tracking) and resets it by RSI: new observation, seeded feature history, fresh mask.
+  /// Call after `step`; episode statistics are the caller's. (Added for stage 2 by residual2.)
+  void restart_env(Index e) {
+    require(e >= 0 && e < num_envs(), "env index out of range", {{}, {}, "env"});
+    reset_env(e);
+    sample_mask(e);
+    build_policy_input();
+  }
+
   /// One control step with `actions` = PD targets (action_dim × N, radians).
   void step(const Eigen::Ref<const MatrixXf>& actions) {
     const Index n = num_envs();

@@ -26,6 +26,7 @@
 #include <maskadapt/motion/skeleton.hpp>
 #include <maskadapt/tracking/generator.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <functional>
 #include <string>
@@ -135,6 +136,23 @@ class WindowedTermination {
   void reset(Index e) {
     count_[static_cast<std::size_t>(e)] = 0;
     sum_[static_cast<std::size_t>(e)] = 0.0;
+  }
+
+  /// Env e's state for checkpoints: [count, sum, ring buffer (window)].
+  std::vector<double> env_state(Index e) const {
+    const auto ue = static_cast<std::size_t>(e);
+    std::vector<double> v{static_cast<double>(count_[ue]), sum_[ue]};
+    v.insert(v.end(), buf_[ue].begin(), buf_[ue].end());
+    return v;
+  }
+  /// Restores what `env_state` returned (same window; throws otherwise).
+  void set_env_state(Index e, const std::vector<double>& v) {
+    const auto ue = static_cast<std::size_t>(e);
+    require(v.size() == buf_[ue].size() + 2, "windowed-termination state has the wrong size",
+            {{}, {}, "tracking.term_state"});
+    count_[ue] = static_cast<Index>(v[0]);
+    sum_[ue] = v[1];
+    std::copy(v.begin() + 2, v.end(), buf_[ue].begin());
   }
 
  private:

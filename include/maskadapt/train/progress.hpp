@@ -10,6 +10,7 @@
 #include <cmath>
 #include <cstdio>
 #include <fstream>
+#include <map>
 #include <string>
 
 namespace maskadapt::train {
@@ -57,11 +58,13 @@ struct IterationStats {
   long long sim_resets = 0;       ///< envs reset by the simulator because physics went non-finite
   double elapsed_s = 0;           ///< wall time since the run (or resume) started
   double eta_s = NAN;             ///< estimated time left (NaN when unknown)
+  /// Task-specific columns (e.g. stage 2's "tracking_reward"), written to the log as extra keys.
+  std::map<std::string, double> extra;
 };
 
 inline nlohmann::json to_json(const IterationStats& s) {
   auto num = [](double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr); };
-  return {{"iteration", s.iteration},
+  nlohmann::json j = {{"iteration", s.iteration},
           {"samples", s.samples},
           {"samples_per_s", num(s.samples_per_s)},
           {"episode_length", num(s.episode_length)},
@@ -88,6 +91,8 @@ inline nlohmann::json to_json(const IterationStats& s) {
           {"sim_resets", s.sim_resets},
           {"elapsed_s", num(s.elapsed_s)},
           {"eta_s", num(s.eta_s)}};
+  for (const auto& [k, v] : s.extra) j[k] = num(v);
+  return j;
 }
 
 /// Appends one JSON object per line; flushed after every line so a crash loses nothing.

@@ -21,10 +21,12 @@
 ///     (+ replay) (+ negative-expert blends with mismatched masks for conditioned members).
 /// The base actor is never stepped (test: bit-identical parameters after training).
 ///
-/// Limitations (documented in docs/composition.md): checkpoints hold the networks, normalisers,
-/// PopArt and counters but not optimiser moments or RNG states, so a resume is not bit-exact;
-/// the tracking task's windowed early termination ends the *goal episode* (no bootstrap, new
-/// goal trajectory and mask) without physically resetting the simulated env.
+/// Checkpoints hold everything needed to continue bit-exactly when the simulator can save its
+/// state (tasks::StateSavingSimulator): networks, normalisers, PopArt, Adam moments and step
+/// counts, replay buffers, the trainer's, the task's and the mask streams' RNG states, and for
+/// tracking the goal buffer, each env's goal position and windowed-termination history.
+/// The tracking task's windowed early termination ends the episode and physically resets the env
+/// (ImitationTask::restart_env).
 #include <maskadapt/adapt/residual_policy.hpp>
 #include <maskadapt/core/checkpoint.hpp>
 #include <maskadapt/core/error.hpp>
@@ -181,6 +183,62 @@ inline rl::GaussianActor<float> load_base_actor(const Checkpoint& ck, Index obs_
   return a;
 }
 
+/// The residual network settings of a run. Tracking with method cml: the base sees the full
+/// observation (no mask invariance; see adapt::ResidualConfig::masked_base_input).
+inline adapt::ResidualConfig residual_net_config(const ResidualTrainConfig& c, const Skeleton& skel) {
+  adapt::ResidualConfig rc;
+  rc.hidden = c.residual_hidden;
+  rc.activation = residual_activation(c.rl.net.activation);
+  rc.gain = adapt::gain_mode_from_name(c.gain);
+  rc.init_gain = c.init_gain;
+  rc.masked_base_input = !(c.task == "tracking" && c.method == "cml");
+  if (c.task == "tracking") rc.goal_dim = tracking::goal_dim(skel, PartMask::parse(c.designated, "designated"), c.goal_steps);
+  return rc;
+}
+
+/// A zero base actor for the from-scratch comparison: every DoF residual, base action 0.
+inline rl::GaussianActor<float> scratch_base_actor(Index obs_dim, Index action_dim) {
+  rl::ActorCriticConfig ac;
+  ac.policy_input_dim = obs_dim + kNumParts;
+  ac.critic_input_dim = obs_dim;
+  ac.action_dim = action_dim;
+  ac.actor_hidden = {8};
+  Rng r(0);
+  rl::GaussianActor<float> a(ac, r);
+  a.mean_net.params().setZero();
+  return a;
+}
+
+/// An actor with the architecture of a run's frozen base (c.rl.net, which train-residual copies
+/// from the base checkpoint; scratch: the zero base). Parameters are placeholders until a
+/// checkpoint's base/ sections are loaded.
+inline rl::GaussianActor<float> base_actor_like(const ResidualTrainConfig& c, Index obs_dim, Index action_dim) {
+  if (c.method == "scratch") return scratch_base_actor(obs_dim, action_dim);
+  rl::ActorCriticConfig ac;
+  ac.policy_input_dim = obs_dim + kNumParts;
+  ac.critic_input_dim = obs_dim;
+  ac.action_dim = action_dim;
+  ac.actor_hidden = c.rl.net.actor_hidden;
+  ac.activation = residual_activation(c.rl.net.activation);
+  ac.init_log_std = c.rl.net.init_log_std;
+  Rng r(0);
+  return rl::GaussianActor<float>(ac, r);
+}
+
+/// The residual policy (with its frozen base) stored in a train-residual checkpoint; `config`
+/// receives the run's config.
+inline adapt::ResidualPolicy<float> residual_policy_from_checkpoint(const Checkpoint& ck, const Skeleton& skel,
+                                                                    ResidualTrainConfig* config = nullptr) {
+  const ResidualTrainConfig c = residual_config_from_json(nlohmann::json::parse(ck.get_string("residual_config")), "checkpoint");
+  const Index obs_dim = observation_dim(skel), A = skel.num_dofs();
+  const adapt::ResidualConfig rc = residual_net_config(c, skel);
+  Rng init(0);
+  adapt::ResidualPolicy<float> pol(base_actor_like(c, obs_dim, A), obs_dim, action_parts(skel), rc, init);
+  pol.load(ck, true);
+  if (config) *config = c;
+  return pol;
+}
+
 /// One reward source backed by a discriminator.
 struct DiscriminatorSource {
   std::string name;
@@ -227,11 +285,8 @@ class ResidualTrainer {
     const Index N = task_.num_envs();
     masks_ = tasks::EpisodeMasks(setup_.masks, N, setup_.switch_rate, task_.control_dt(), cfg_.rl.run.seed);
     Rng init = Rng::stream(cfg_.rl.run.seed, 0x2E51ULL);
-    adapt::ResidualConfig rc;
-    rc.hidden = cfg_.residual_hidden;
-    rc.activation = residual_activation(cfg_.rl.net.activation);
-    rc.gain = adapt::gain_mode_from_name(cfg_.gain);
-    rc.init_gain = cfg_.init_gain;
+    adapt::ResidualConfig rc = residual_net_config(cfg_, sim.skeleton());
+    rc.goal_dim = 0;
     if (setup_.tracking) {
       bodies_ = tracking::designated_bodies(sim.skeleton(), setup_.tracking->designated);
       rc.goal_dim = tracking::goal_dim(sim.skeleton(), setup_.tracking->designated, setup_.tracking->goal_steps);
@@ -309,7 +364,9 @@ class ResidualTrainer {
       setup_.tracking->refill(rng_, goals_);
       for (auto& g : goal_index_) g = std::min<std::size_t>(g, goals_.trajectories.size() - 1);
     }
+    tracking_terminations_ = 0;
     collect(st);
+    if (setup_.tracking) st.extra["tracking_terminations"] = static_cast<double>(tracking_terminations_);
     Stopwatch upd;
     compute_rewards(st);
     rl::compute_gae(buf_, rl::GaeParams{cfg_.rl.ppo.gamma, cfg_.rl.ppo.gae_lambda});
@@ -331,7 +388,7 @@ class ResidualTrainer {
     return st;
   }
 
-  /// Networks + config (not optimiser moments / RNG states: resume is not bit-exact).
+  /// Everything needed to continue training (see the file comment) plus both configs.
   void save(Checkpoint& c) const {
     c.put_string("residual_config", to_json(cfg_).dump());
     c.put_string("config", to_json(cfg_.rl).dump());
@@ -348,13 +405,16 @@ class ResidualTrainer {
     }
     c.put_int("trainer/iteration", iteration_);
     c.put_int("trainer/samples", samples_);
+    save_training_state(c);
   }
   void save(const std::string& path) const {
     Checkpoint c;
     save(c);
     save_checkpoint(path, c);
   }
-  /// Restores the networks written by `save` (same sizes).
+  /// Restores what `save` wrote (same sizes and env count; throws naming the section otherwise).
+  /// A checkpoint without the "state/" sections (networks only) restores the networks and
+  /// counters; training then continues from fresh optimiser and RNG states.
   void load(const Checkpoint& c) {
     policy_.load(c, true);
     c.copy_to<float>("critic/params", critic_.net.params());
@@ -368,9 +428,151 @@ class ResidualTrainer {
     }
     iteration_ = c.get_int("trainer/iteration");
     samples_ = c.get_int("trainer/samples");
+    if (c.contains("state/rng")) load_training_state(c);
   }
 
  private:
+  // ---- checkpoint: optimiser, RNG, task and tracking state ---------------------------------
+  void save_training_state(Checkpoint& c) const {
+    auto& self = const_cast<ResidualTrainer&>(*this);  // block accessors are non-const only; nothing changes
+    const auto blocks = self.policy_.trainable_blocks();
+    for (std::size_t i = 0; i < blocks.size(); ++i) c.put("state/actor/" + std::to_string(i), blocks[i]->storage());
+    c.put("state/critic", critic_.net.block().storage());
+    c.put_int("state/actor_steps", actor_opt_.step_count());
+    c.put_int("state/critic_steps", critic_opt_.step_count());
+    for (Index k = 0; k < discs_.size(); ++k) {
+      auto& d = self.discs_.members[static_cast<std::size_t>(k)];
+      const std::string p = "state/disc/" + std::to_string(k);
+      c.put(p + "/block", d.net().block().storage());
+      c.put_int(p + "/steps", d.optimizer().step_count());
+      const auto& r = replays_[static_cast<std::size_t>(k)];
+      c.put(p + "/replay", r.storage());
+      c.put_int(p + "/replay_size", r.size());
+      c.put_int(p + "/replay_head", r.head());
+    }
+    c.put_rng("state/rng", rng_);
+    const Index N = task_.num_envs();
+    VectorX<std::int64_t> masks(N);
+    for (Index e = 0; e < N; ++e) {
+      masks[e] = masks_.masks()[static_cast<std::size_t>(e)].bits;
+      c.put_rng("state/mask_rng/" + std::to_string(e), masks_.rngs()[static_cast<std::size_t>(e)]);
+    }
+    c.put("state/masks", masks);
+    const auto ts = task_.save_state();
+    VectorX<std::int64_t> steps(N), tmask(N);
+    for (Index e = 0; e < N; ++e) {
+      const auto ue = static_cast<std::size_t>(e);
+      Rng r;
+      r.set_state(ts.rngs[ue]);
+      c.put_rng("state/task/rng/" + std::to_string(e), r);
+      c.put("state/task/history/" + std::to_string(e), ts.history[ue]);
+      if (!ts.sim.empty())
+        c.put("state/task/sim/" + std::to_string(e), Eigen::Map<const VectorXd>(ts.sim[ue].data(), static_cast<Index>(ts.sim[ue].size())));
+      steps[e] = ts.steps[ue];
+      tmask[e] = ts.masks[ue];
+    }
+    c.put("state/task/steps", steps);
+    c.put("state/task/masks", tmask);
+    c.put("state/task/obs", ts.obs);
+    c.put_int("state/task/has_sim", ts.sim.empty() ? 0 : 1);
+    if (!setup_.tracking) return;
+    c.put_int("state/goals/count", static_cast<std::int64_t>(goals_.trajectories.size()));
+    for (std::size_t i = 0; i < goals_.trajectories.size(); ++i) {
+      const auto& t = goals_.trajectories[i];
+      const std::string p = "state/goals/" + std::to_string(i);
+      MatrixXd rot(4, t.num_frames());
+      for (Index f = 0; f < t.num_frames(); ++f) rot.col(f) = t.root_rot[static_cast<std::size_t>(f)].coeffs();
+      c.put(p + "/root_pos", MatrixXd(t.root_pos));
+      c.put(p + "/root_rot", rot);
+      c.put(p + "/q", t.q);
+      c.put(p + "/body_pos", t.body_pos);
+      c.put_string(p + "/text", goals_.texts[i]);
+    }
+    VectorX<std::int64_t> gi(N), gf(N);
+    VectorXf lt(N);
+    for (Index e = 0; e < N; ++e) {
+      const auto ue = static_cast<std::size_t>(e);
+      gi[e] = static_cast<std::int64_t>(goal_index_[ue]);
+      gf[e] = static_cast<std::int64_t>(goal_frame_[ue]);
+      lt[e] = last_track_[ue];
+      const auto ws = term_.env_state(e);
+      c.put("state/term/" + std::to_string(e), Eigen::Map<const VectorXd>(ws.data(), static_cast<Index>(ws.size())));
+    }
+    c.put("state/goal_index", gi);
+    c.put("state/goal_frame", gf);
+    c.put("state/last_track", lt);
+  }
+
+  void load_training_state(const Checkpoint& c) {
+    const auto blocks = policy_.trainable_blocks();
+    for (std::size_t i = 0; i < blocks.size(); ++i) c.copy_to<float>("state/actor/" + std::to_string(i), blocks[i]->storage());
+    c.copy_to<float>("state/critic", critic_.net.block().storage());
+    actor_opt_.set_step_count(c.get_int("state/actor_steps"));
+    critic_opt_.set_step_count(c.get_int("state/critic_steps"));
+    for (Index k = 0; k < discs_.size(); ++k) {
+      auto& d = discs_.members[static_cast<std::size_t>(k)];
+      const std::string p = "state/disc/" + std::to_string(k);
+      c.copy_to<float>(p + "/block", d.net().block().storage());
+      d.optimizer().set_step_count(c.get_int(p + "/steps"));
+      auto& r = replays_[static_cast<std::size_t>(k)];
+      r.restore(c.get_matrix<float>(p + "/replay", r.storage().rows(), r.storage().cols()), c.get_int(p + "/replay_size"),
+                c.get_int(p + "/replay_head"));
+    }
+    rng_.set_state(c.get_rng("state/rng"));
+    const Index N = task_.num_envs();
+    const auto masks = c.get_vector<std::int64_t>("state/masks", N);
+    for (Index e = 0; e < N; ++e) {
+      masks_.set(e, PartMask{static_cast<std::uint8_t>(masks[e])});
+      masks_.rngs()[static_cast<std::size_t>(e)].set_state(c.get_rng("state/mask_rng/" + std::to_string(e)));
+    }
+    typename tasks::ImitationTask<Sim>::State ts;
+    const auto steps = c.get_vector<std::int64_t>("state/task/steps", N);
+    const auto tmask = c.get_vector<std::int64_t>("state/task/masks", N);
+    const bool has_sim = c.get_int("state/task/has_sim") != 0;
+    for (Index e = 0; e < N; ++e) {
+      ts.rngs.push_back(c.get_rng("state/task/rng/" + std::to_string(e)));
+      ts.history.push_back(c.get_matrix<float>("state/task/history/" + std::to_string(e), task_.obs_dim(), tasks::kAmpWindowFrames));
+      ts.steps.push_back(steps[e]);
+      ts.masks.push_back(static_cast<std::uint8_t>(tmask[e]));
+      if (has_sim) {
+        const VectorXd v = c.get_vector<double>("state/task/sim/" + std::to_string(e));
+        ts.sim.emplace_back(v.data(), v.data() + v.size());
+      }
+    }
+    ts.obs = c.get_matrix<float>("state/task/obs", task_.obs_dim(), N);
+    task_.load_state(ts);
+    if (!setup_.tracking) return;
+    const Skeleton& skel = task_.sim().skeleton();
+    const auto count = static_cast<std::size_t>(c.get_int("state/goals/count"));
+    require(count >= 1, "checkpoint holds an empty goal buffer", {{}, {}, "state/goals/count"});
+    goals_.trajectories.clear();
+    goals_.texts.clear();
+    for (std::size_t i = 0; i < count; ++i) {
+      const std::string p = "state/goals/" + std::to_string(i);
+      tracking::Trajectory t;
+      t.root_pos = c.get_matrix<double>(p + "/root_pos");
+      const MatrixXd rot = c.get_matrix<double>(p + "/root_rot", 4, t.root_pos.cols());
+      for (Index f = 0; f < rot.cols(); ++f) t.root_rot.emplace_back(rot(3, f), rot(0, f), rot(1, f), rot(2, f));
+      t.q = c.get_matrix<double>(p + "/q", skel.num_dofs(), t.root_pos.cols());
+      t.body_pos = c.get_matrix<double>(p + "/body_pos", 3 * skel.num_bodies(), t.root_pos.cols());
+      goals_.trajectories.push_back(std::move(t));
+      goals_.texts.push_back(c.get_string(p + "/text"));
+    }
+    const auto gi = c.get_vector<std::int64_t>("state/goal_index", N);
+    const auto gf = c.get_vector<std::int64_t>("state/goal_frame", N);
+    const auto lt = c.get_vector<float>("state/last_track", N);
+    for (Index e = 0; e < N; ++e) {
+      const auto ue = static_cast<std::size_t>(e);
+      require(gi[e] >= 0 && static_cast<std::size_t>(gi[e]) < count && gf[e] >= 0, "goal position out of range",
+              {{}, {}, "state/goal_index"});
+      goal_index_[ue] = static_cast<std::size_t>(gi[e]);
+      goal_frame_[ue] = static_cast<std::size_t>(gf[e]);
+      last_track_[ue] = lt[e];
+      const VectorXd ws = c.get_vector<double>("state/term/" + std::to_string(e));
+      term_.set_env_state(e, std::vector<double>(ws.data(), ws.data() + ws.size()));
+    }
+  }
+
   static tasks::ImitationTaskConfig no_mask_task(const BaseTrainConfig& c, std::optional<FallCriteria> fall) {
     tasks::ImitationTaskConfig t;
     t.fall = std::move(fall);
@@ -453,7 +655,11 @@ class ResidualTrainer {
             const Index f = std::min<Index>(static_cast<Index>(gf), traj.num_frames() - 1);
             last_track_[ue] = static_cast<float>(tracking::tracking_reward(task_.sim().skeleton(), bodies_, traj.q.col(f),
                                                                           task_.sim().body_states(ue)));
-            if (term_.push(e, last_track_[ue])) term = true;  // windowed average too low: end the goal episode
+            if (term_.push(e, last_track_[ue])) {  // windowed average too low: end the episode, reset the env
+              term = true;
+              task_.restart_env(e);
+              ++tracking_terminations_;
+            }
           }
           track_rewards_(0, c0 + e) = last_track_[ue];
         }
@@ -504,7 +710,10 @@ class ResidualTrainer {
     if (setup_.tracking) {
       buf_.rewards.row(K_ - 1) = track_rewards_;
       last_tracking_reward_ = track_rewards_.cast<double>().mean();
+      st.extra["tracking_reward"] = last_tracking_reward_;
     }
+    for (std::size_t k = 0; k < setup_.discriminators.size() && K_ > 1; ++k)
+      st.extra["reward_" + setup_.discriminators[k].name] = buf_.rewards.row(static_cast<Index>(k)).cast<double>().mean();
     double w = 0;
     for (Index k = 0; k < static_cast<Index>(setup_.discriminators.size()); ++k) {
       w += weights_[static_cast<std::size_t>(k)] * buf_.rewards.row(k).cast<double>().mean();
@@ -658,6 +867,7 @@ class ResidualTrainer {
   rl::RolloutBuffer<float> buf_;
   long long iteration_ = 0, samples_ = 0;
   double last_tracking_reward_ = NAN;
+  long long tracking_terminations_ = 0;
   // tracking
   std::vector<int> bodies_;
   tracking::GoalBuffer goals_;

@@ -1,0 +1,91 @@
+# cmake -DCLI=… -DCONFIG=…/configs/smoke.json -DDATA=…/motions/cmu -DOUT=… -P smoke_residual.cmake
+# Stage 2 end to end on the MuJoCo humanoid with tiny sizes: a 1-iteration base, train-residual
+# composition (ours and cml) and tracking (with a 2-iteration generator), a resume, play-residual
+# with a mask schedule and with a text schedule (BVH + viewer rollout), and eval-residual for both
+# tasks (shrunk). Every output must exist and parse.
+file(REMOVE_RECURSE ${OUT})
+file(MAKE_DIRECTORY ${OUT})
+function(run what)
+  execute_process(COMMAND ${CLI} ${ARGN} RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err)
+  if(NOT rc EQUAL 0)
+    message(FATAL_ERROR "${what} failed (${rc}):\n${out}\n${err}")
+  endif()
+  set(LAST_OUTPUT "${out}" PARENT_SCOPE)
+endfunction()
+function(require_json file)
+  if(NOT EXISTS ${file})
+    message(FATAL_ERROR "missing ${file}")
+  endif()
+  file(READ ${file} j)
+  string(JSON dummy ERROR_VARIABLE e TYPE "${j}")
+  if(e)
+    message(FATAL_ERROR "${file} is not JSON: ${e}")
+  endif()
+endfunction()
+set(tiny --config ${CONFIG} --threads 1 --envs 2 --hidden 16 --episode-seconds 1)
+
+run("train-base" train-base --config ${CONFIG} --iterations 1 --envs 2 --threads 1 --motions walk --out ${OUT}/base)
+set(BASE ${OUT}/base/checkpoint.bin)
+
+foreach(method ours cml)
+  run("train-residual composition ${method}" train-residual --task composition --method ${method} --base ${BASE}
+      --new-motion kick --masks lower_body arms --switch-rate 1 --iterations 1 ${tiny} --out ${OUT}/comp_${method})
+  file(STRINGS ${OUT}/comp_${method}/log.jsonl lines)
+  list(LENGTH lines n)
+  if(NOT n EQUAL 1)
+    message(FATAL_ERROR "comp_${method}/log.jsonl has ${n} lines, expected 1")
+  endif()
+endforeach()
+# resume: one more iteration continues the log
+run("train-residual --resume" train-residual --resume ${OUT}/comp_ours/checkpoint.bin --iterations 2 --out ${OUT}/comp_ours)
+file(STRINGS ${OUT}/comp_ours/log.jsonl lines)
+list(LENGTH lines n)
+list(GET lines 1 second)
+string(JSON it GET "${second}" iteration)
+if(NOT n EQUAL 2 OR NOT it EQUAL 2)
+  message(FATAL_ERROR "resumed log: ${n} lines, last iteration ${it} (expected 2 and 2)")
+endif()
+
+run("train-generator" train-generator --data ${DATA} --iterations 2 --batch 8 --stride 8 --out ${OUT}/gen.ckpt)
+run("train-residual tracking" train-residual --task tracking --base ${BASE} --generator ${OUT}/gen.ckpt
+    --goal-trajectories 2 --iterations 1 ${tiny} --out ${OUT}/track)
+file(STRINGS ${OUT}/track/log.jsonl lines)
+list(GET lines 0 first)
+string(JSON tr ERROR_VARIABLE e GET "${first}" tracking_reward)
+if(e OR tr STREQUAL "null")
+  message(FATAL_ERROR "track/log.jsonl has no tracking_reward column: ${first}")
+endif()
+
+run("play-residual --mask-schedule" play-residual ${OUT}/comp_ours/checkpoint.bin --mask-schedule "0:lower_body,0.5:arms"
+    --seconds 1 --bvh ${OUT}/comp.bvh --rollout ${OUT}/comp.json)
+file(READ ${OUT}/comp.bvh bvh)
+if(NOT bvh MATCHES "^HIERARCHY" OR NOT bvh MATCHES "Frames:[ \t]+30[\r\n]")
+  message(FATAL_ERROR "comp.bvh is not a 30-frame BVH")
+endif()
+require_json(${OUT}/comp.json)
+file(READ ${OUT}/comp.json j)
+string(JSON nframes GET "${j}" num_frames)
+if(NOT nframes EQUAL 30)
+  message(FATAL_ERROR "comp.json: ${nframes} frames, expected 30")
+endif()
+
+run("play-residual --text" play-residual ${OUT}/track/checkpoint.bin --text "0:wave hands,0.5:raise arms"
+    --seconds 1 --bvh ${OUT}/track.bvh --rollout ${OUT}/track.json)
+require_json(${OUT}/track.json)
+file(READ ${OUT}/track.json j)
+string(JSON ntexts LENGTH "${j}" texts)
+string(JSON goals ERROR_VARIABLE e TYPE "${j}" goals)
+if(NOT ntexts EQUAL 2 OR e)
+  message(FATAL_ERROR "track.json: ${ntexts} texts (expected 2), goals: ${goals} ${e}")
+endif()
+
+run("eval-residual composition" eval-residual ${OUT}/comp_cml/checkpoint.bin --envs 2 --frames 20 --out ${OUT}/eval_comp.json)
+require_json(${OUT}/eval_comp.json)
+file(READ ${OUT}/eval_comp.json j)
+string(JSON h GET "${j}" rows 0 h_norm_adapted_vs_new)
+run("eval-residual tracking" eval-residual ${OUT}/track/checkpoint.bin --num-prompts 2 --seconds 0.5 --repeats 2
+    --out ${OUT}/eval_track.json)
+require_json(${OUT}/eval_track.json)
+file(READ ${OUT}/eval_track.json j)
+string(JSON sr GET "${j}" result success_rate)
+message(STATUS "stage-2 CLI smoke OK: composition ours/cml + resume, tracking, play (mask/text), eval (H_norm adapted ${h}, success ${sr})")
