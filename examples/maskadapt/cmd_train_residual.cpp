@@ -21,6 +21,7 @@
 #include <maskadapt/sim/mujoco/humanoid_sim.hpp>
 #endif
 
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
 #include <iostream>
@@ -372,7 +373,12 @@ void run_eval(const EvalArgs& a) {
     require(!gpath.empty(), "tracking evaluation needs a generator", {{}, {}, "--generator"});
     auto gen = tracking::BuiltinGenerator::load(gpath, sim.skeleton());
     TrackingEvalOptions opt;
-    opt.prompts = a.prompts.empty() ? default_text_pool(sim.skeleton()) : a.prompts;
+    opt.prompts = a.prompts;
+    if (opt.prompts.empty()) {  // the pool, topped up with the fixed prompts it lacks (10 with the shared clips)
+      opt.prompts = default_text_pool(sim.skeleton());
+      for (const char* t : {"raise arms", "wave hands", "punch", "wash self"})
+        if (std::find(opt.prompts.begin(), opt.prompts.end(), t) == opt.prompts.end()) opt.prompts.push_back(t);
+    }
     if (static_cast<int>(opt.prompts.size()) > a.num_prompts) opt.prompts.resize(static_cast<std::size_t>(a.num_prompts));
     opt.repeats = a.repeats;
     opt.seconds = a.seconds;

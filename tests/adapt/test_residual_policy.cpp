@@ -293,7 +293,7 @@ TEST(ResidualPolicy, UnmaskedBaseInputIgnoresTheMask) {
   EXPECT_TRUE((x_cml.middleRows(kObs, kAct).col(0).array() == x_cml.middleRows(kObs, kAct).col(1).array()).all());
   const std::vector<PartMask> null_masks(2, PartMask::none());
   const MatrixXf full_in = policy_input<float>(pe, obs, null_masks);
-  MatrixXf base_mu, scratch;
+  MatrixXf base_mu(kAct, 2), scratch;
   nn::InferenceWorkspace<float> bws;
   cml.base().mean(full_in, base_mu, bws, scratch);
   EXPECT_TRUE((x_cml.middleRows(kObs, kAct).array() == base_mu.array()).all());

@@ -21,6 +21,9 @@
 ///     (+ replay) (+ negative-expert blends with mismatched masks for conditioned members).
 /// The base actor is never stepped (test: bit-identical parameters after training).
 ///
+/// Tracking with method cml: the same objectives, but the base runs on the full observation with
+/// the null mask (no mask invariance; residual_net_config); scratch: a zero base, every DoF residual.
+///
 /// Checkpoints hold everything needed to continue bit-exactly when the simulator can save its
 /// state (tasks::StateSavingSimulator): networks, normalisers, PopArt, Adam moments and step
 /// counts, replay buffers, the trainer's, the task's and the mask streams' RNG states, and for
@@ -550,7 +553,7 @@ class ResidualTrainer {
     for (std::size_t i = 0; i < count; ++i) {
       const std::string p = "state/goals/" + std::to_string(i);
       tracking::Trajectory t;
-      t.root_pos = c.get_matrix<double>(p + "/root_pos");
+      t.root_pos = c.get_matrix<double>(p + "/root_pos", 3);
       const MatrixXd rot = c.get_matrix<double>(p + "/root_rot", 4, t.root_pos.cols());
       for (Index f = 0; f < rot.cols(); ++f) t.root_rot.emplace_back(rot(3, f), rot(0, f), rot(1, f), rot(2, f));
       t.q = c.get_matrix<double>(p + "/q", skel.num_dofs(), t.root_pos.cols());
