@@ -13,6 +13,16 @@
 /// ½ Σ_i (μp,i − μq,i)²/σ_i²; when the log-std is *learned*, the gradient w.r.t. q's
 /// log-std (1 − (σp² + (μp−μq)²)/σq², with σp fixed as target) is added to it too.
 ///
+/// Gradient modes (`MiGradient`):
+///  - `TargetStopped` — the form written above: p is a constant target, only q gets gradients.
+///  - `Both` (default) — the exact gradient of KL(p‖q) w.r.t. the shared parameters, through p
+///    and q. Measured (tests/adapt/test_mi_loss.cpp, `MiLoss.StoppedTargetDivergesOnAFixedBatch`;
+///    docs/algorithms.md): with one shared network, the stopped-target update is unstable — a
+///    step that moves μ(s̄, m) towards μ(s, m⁰) moves μ(s, m⁰) further the same way (the full input
+///    has more non-zero features), so on a fixed batch KL grows geometrically under Adam
+///    (59 → 130 in 200 steps at lr 1e-5, → 4·10⁴ at 1e-4), while the exact gradient lowers it
+///    (59 → 18). Choose `TargetStopped` to reproduce the paper's formulation literally.
+///
 /// Input layout assumed by `unmasked_policy_input` / `masked_policy_input`: the policy input is
 /// [s ; mask bits] with one 0/1 row per body part (null mask = all zeros), as mask/apply.hpp
 /// builds it.
@@ -23,14 +33,26 @@
 #include <maskadapt/nn/mlp.hpp>
 #include <maskadapt/rl/actor_critic.hpp>
 
+#include <string>
 #include <type_traits>
 #include <vector>
 
 namespace maskadapt::adapt {
 
+/// Which distributions the MI gradient flows through (see the file comment).
+enum class MiGradient { Both, TargetStopped };
+
+inline MiGradient mi_gradient_from_string(const std::string& s, const std::string& field = "mi_gradient") {
+  if (s == "both") return MiGradient::Both;
+  if (s == "target_stopped") return MiGradient::TargetStopped;
+  throw Error("unknown MI gradient mode '" + s + "' (expected both or target_stopped)", {{}, {}, field});
+}
+inline const char* to_string(MiGradient g) { return g == MiGradient::Both ? "both" : "target_stopped"; }
+
 /// λ_MI (paper: 1.0; 0 disables).
 struct MiLossConfig {
   double lambda = 1.0;
+  MiGradient gradient = MiGradient::Both;
 };
 
 struct MiLossResult {
@@ -42,19 +64,28 @@ struct MiLossResult {
 /// log_std (action_dim × 1). Returns mean KL; ADDS λ·∂L_MI/∂mu_masked into `dmu_masked`
 /// (action_dim × B, resized+zeroed if empty) and, when `dlog_std` is non-null, λ·∂L_MI/∂logσ_q
 /// into it (action_dim × 1). Nothing is added when λ = 0.
+/// With `dmu_full` non-null, the gradient through the target, λ·∂L_MI/∂mu_full, is ADDED into it
+/// too (MiGradient::Both); with a learned log-std shared by p and q, `dlog_std` then receives the
+/// sum of both sides' log-std gradients.
 template <class T>
 MiLossResult mi_loss_on_means(const Eigen::Ref<const MatrixX<T>>& mu_full, const Eigen::Ref<const MatrixX<T>>& mu_masked,
                               const Eigen::Ref<const MatrixX<T>>& log_std, double lambda, MatrixX<T>& dmu_masked,
-                              MatrixX<T>* dlog_std) {
+                              MatrixX<T>* dlog_std, MatrixX<T>* dmu_full = nullptr) {
   require(lambda >= 0, "lambda_MI must be >= 0", {{}, {}, "lambda_mi"});
   nn::KlGrads<T> g;
+  MatrixX<T> dlog_std_p;
   if (lambda > 0) {
     g.mean_q = &dmu_masked;
     g.log_std_q = dlog_std;
+    if (dmu_full) {
+      g.mean_p = dmu_full;
+      if (dlog_std) g.log_std_p = &dlog_std_p;
+    }
   }
   MiLossResult r;
   r.kl = static_cast<double>(nn::kl_diag_gaussian_mean<T>(mu_full, log_std, mu_masked, log_std, g,
-                                                          nn::KlOptions{true, lambda}));
+                                                          nn::KlOptions{dmu_full == nullptr, lambda}));
+  if (dlog_std && dlog_std_p.size()) *dlog_std += dlog_std_p;
   r.loss = lambda * r.kl;
   return r;
 }
@@ -62,9 +93,9 @@ MiLossResult mi_loss_on_means(const Eigen::Ref<const MatrixX<T>>& mu_full, const
 /// Reusable buffers for mi_loss.
 template <class T>
 struct MiWorkspace {
-  MatrixX<T> norm_full, norm_masked, mu_full, dmu, dlog_std;
+  MatrixX<T> norm_full, norm_masked, mu_full, dmu, dmu_full, dlog_std;
   nn::InferenceWorkspace<T> ws;
-  nn::TrainCache<T> cache;
+  nn::TrainCache<T> cache, cache_full;
 };
 
 /// Whole MI loss for `actor`: full_input = policy input with the null mask (input_dim × B),
@@ -73,22 +104,30 @@ struct MiWorkspace {
 template <class T>
 MiLossResult mi_loss(rl::GaussianActor<T>& actor, const std::type_identity_t<Eigen::Ref<const MatrixX<T>>>& full_input,
                      const std::type_identity_t<Eigen::Ref<const MatrixX<T>>>& masked_input, double lambda,
-                     MiWorkspace<T>& w) {
+                     MiWorkspace<T>& w, MiGradient gradient = MiGradient::Both) {
   require(full_input.rows() == actor.input_dim() && masked_input.rows() == actor.input_dim() &&
               full_input.cols() == masked_input.cols() && full_input.cols() > 0,
           "full and masked inputs must both be (policy_input_dim × B) with B > 0", {{}, {}, "mi_loss"});
   const Index B = full_input.cols(), d = actor.action_dim();
+  const bool through_target = gradient == MiGradient::Both && lambda > 0;
   actor.normalize(full_input, w.norm_full);
-  w.mu_full.resize(d, B);
-  actor.mean_net.forward(w.norm_full, w.mu_full, w.ws);  // target: no cache, no gradient
+  if (through_target) {
+    w.mu_full = actor.mean_net.forward_train(w.norm_full, w.cache_full);
+  } else {
+    w.mu_full.resize(d, B);
+    actor.mean_net.forward(w.norm_full, w.mu_full, w.ws);  // stopped target: no cache, no gradient
+  }
   actor.normalize(masked_input, w.norm_masked);
   const MatrixX<T>& mu_masked = actor.mean_net.forward_train(w.norm_masked, w.cache);
   w.dmu.setZero(d, B);
+  w.dmu_full.setZero(through_target ? d : 0, through_target ? B : 0);
   w.dlog_std.setZero(d, 1);
   const MiLossResult r = mi_loss_on_means<T>(w.mu_full, mu_masked, actor.log_std_col(), lambda, w.dmu,
-                                             actor.learn_log_std ? &w.dlog_std : nullptr);
+                                             actor.learn_log_std ? &w.dlog_std : nullptr,
+                                             through_target ? &w.dmu_full : nullptr);
   if (lambda > 0) {
     actor.mean_net.backward(w.cache, w.dmu, actor.mean_net.grads());
+    if (through_target) actor.mean_net.backward(w.cache_full, w.dmu_full, actor.mean_net.grads());
     if (actor.learn_log_std) actor.log_std.grads() += w.dlog_std.col(0);
   }
   return r;

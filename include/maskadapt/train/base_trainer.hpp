@@ -312,7 +312,9 @@ class BaseTrainer {
         double mi_kl = 0;
         if (cfg_.mask.enabled) {
           adapt::unmasked_policy_input<float>(obs, task_.policy_input_dim(), full);
-          mi_kl = adapt::mi_loss<float>(actor, full, pin, cfg_.mask.lambda_mi, mi_ws_).kl;
+          mi_kl = adapt::mi_loss<float>(actor, full, pin, cfg_.mask.lambda_mi, mi_ws_,
+                                          adapt::mi_gradient_from_string(cfg_.mask.mi_gradient, "mask.mi_gradient"))
+                      .kl;
         }
         const auto ar = actor_opt_.step(actor.trainable_blocks());
         if (!ar.applied) ++st.skipped_updates;

@@ -54,6 +54,10 @@ struct MaskConfig {
   double prob = 0.8;     ///< probability that a step's mask is non-empty
   int max_parts = 3;     ///< at most K parts masked at once
   double lambda_mi = 1.0;  ///< weight of L_MI = KL(π(·|s,m⁰) ‖ π(·|s̄,m)); 0 disables
+  /// "both": exact KL gradient through both distributions (default; stable);
+  /// "target_stopped": the unmasked policy is a constant target (the paper's formula, literally —
+  /// it diverged in our measurements, see adapt/mi_loss.hpp and docs/results.md).
+  std::string mi_gradient = "both";
 };
 
 /// Network sizes.
@@ -122,6 +126,8 @@ struct BaseTrainConfig {
     check(mask.prob >= 0 && mask.prob <= 1, "mask.prob", "must be in [0, 1]");
     check(mask.max_parts >= 1 && mask.max_parts <= 5, "mask.max_parts", "must be in [1, 5]");
     check(mask.lambda_mi >= 0, "mask.lambda_mi", "must be ≥ 0");
+    check(mask.mi_gradient == "both" || mask.mi_gradient == "target_stopped", "mask.mi_gradient",
+          "must be \"both\" or \"target_stopped\"");
     for (const auto* h : {&net.actor_hidden, &net.critic_hidden, &net.disc_hidden})
       for (Index n : *h) check(n >= 1, h == &net.actor_hidden ? "net.actor_hidden" : h == &net.critic_hidden ? "net.critic_hidden" : "net.disc_hidden", "layer sizes must be ≥ 1");
     check(net.activation == "relu" || net.activation == "elu" || net.activation == "silu" || net.activation == "tanh",
@@ -186,7 +192,7 @@ inline nlohmann::json to_json(const BaseTrainConfig& c) {
               {"termination_height", c.env.termination_height},
               {"early_termination", c.env.early_termination}};
   j["mask"] = {{"enabled", c.mask.enabled}, {"prob", c.mask.prob}, {"max_parts", c.mask.max_parts},
-               {"lambda_mi", c.mask.lambda_mi}};
+               {"lambda_mi", c.mask.lambda_mi}, {"mi_gradient", c.mask.mi_gradient}};
   j["net"] = {{"actor_hidden", c.net.actor_hidden}, {"critic_hidden", c.net.critic_hidden},
               {"disc_hidden", c.net.disc_hidden},   {"activation", c.net.activation},
               {"init_log_std", c.net.init_log_std}, {"learn_log_std", c.net.learn_log_std}};
@@ -256,6 +262,7 @@ inline BaseTrainConfig config_from_json(const nlohmann::json& j, const std::stri
     r.get("prob", c.mask.prob);
     r.get("max_parts", c.mask.max_parts);
     r.get("lambda_mi", c.mask.lambda_mi);
+    r.get("mi_gradient", c.mask.mi_gradient);
     r.finish();
   }
   {
