@@ -10,15 +10,13 @@
 // Exit codes: 0 pass, 1 fail, 77 skipped (no Chromium / node_modules) — ctest SKIP_RETURN_CODE.
 import { spawnSync } from 'node:child_process';
 import fs from 'node:fs';
-import http from 'node:http';
-import os from 'node:os';
 import path from 'node:path';
 import { fileURLToPath } from 'node:url';
+import { CHROMIUM, launchChromium, scrubTo as scrubPage, serveDir, viewerState } from './harness.mjs';
 
 const t0 = Date.now();
 const here = path.dirname(fileURLToPath(import.meta.url));
 const root = path.resolve(here, '..');
-const CHROMIUM = process.env.MASKADAPT_CHROMIUM || '/usr/bin/chromium';
 
 function skip(msg) {
   console.log(`SKIP: ${msg}`);
@@ -48,7 +46,6 @@ if (!fs.existsSync(CHROMIUM)) skip(`Chromium not found at ${CHROMIUM} (install D
 if (!fs.existsSync(path.join(root, 'node_modules', 'playwright-core')) || !fs.existsSync(path.join(root, 'node_modules', 'vite')))
   skip(`node_modules missing in ${root} (run scripts/setup-viewer.sh)`);
 
-const { chromium } = await import('playwright-core');
 const { BASE_COLOR, PART_COLORS } = await import('../src/colors.js');
 const { PART_NAMES } = await import('../src/rollout.js');
 
@@ -64,40 +61,16 @@ if (build.status !== 0) {
 }
 
 // ---- static server ----------------------------------------------------------------------------
-const types = { '.html': 'text/html', '.js': 'text/javascript', '.css': 'text/css', '.json': 'application/json' };
-const server = http.createServer((req, res) => {
-  const rel = decodeURIComponent(new URL(req.url, 'http://x').pathname);
-  const file = path.join(dist, rel === '/' ? 'index.html' : rel);
-  if (!file.startsWith(dist) || !fs.existsSync(file) || fs.statSync(file).isDirectory()) {
-    res.writeHead(404).end();
-    return;
-  }
-  res.writeHead(200, { 'content-type': types[path.extname(file)] || 'application/octet-stream' });
-  fs.createReadStream(file).pipe(res);
-});
-await new Promise((r) => server.listen(0, '127.0.0.1', r));
-const url = `http://127.0.0.1:${server.address().port}/`;
+const server = await serveDir(dist);
+const url = server.url;
 
-const userDataDir = fs.mkdtempSync(path.join(os.tmpdir(), 'maskadapt-viewer-e2e-'));
-let context;
+let browser;
 try {
-  context = await chromium.launchPersistentContext(userDataDir, {
-    executablePath: CHROMIUM,
-    headless: true,
-    viewport: { width: 1280, height: 720 },
-    args: [
-      '--headless', '--no-sandbox', '--disable-gpu', '--disable-quic', '--no-first-run',
-      '--disable-background-networking', '--disable-component-update', '--disable-sync',
-      // WebGL without a GPU: Chromium's software rasteriser (SwiftShader via ANGLE).
-      '--use-angle=swiftshader', '--enable-unsafe-swiftshader',
-    ],
-  });
-  const page = context.pages()[0] || (await context.newPage());
-  const pageErrors = [];
-  page.on('pageerror', (e) => pageErrors.push(e.message));
-  page.on('console', (m) => m.type() === 'error' && pageErrors.push(m.text()));
+  browser = await launchChromium({ width: 1280, height: 720 });
+  const page = browser.page;
+  const pageErrors = page.errors;
   await page.goto(url);
-  const state = () => page.evaluate(() => JSON.parse(JSON.stringify(window.__viewerState)));
+  const state = () => viewerState(page);
 
   // Load A through the file picker.
   await page.setInputFiles('#file-a', path.resolve(args['rollout-a']));
@@ -120,14 +93,7 @@ try {
   check((await state()).frame === paused, 'pause stops playback');
 
   // Scrub to a frame and check the colours of the masked parts.
-  async function scrubTo(frame) {
-    await page.evaluate((v) => {
-      const el = document.getElementById('scrub');
-      el.value = String(v);
-      el.dispatchEvent(new Event('input'));
-    }, frame);
-    return state();
-  }
+  const scrubTo = (frame) => scrubPage(page, frame);
   function checkColours(view, label) {
     for (let b = 0; b < view.bodyNames.length; ++b) {
       const p = PART_NAMES.indexOf(view.bodyParts[b]);
@@ -223,7 +189,6 @@ try {
     process.exitCode = 1;
   }
 } finally {
-  if (context) await context.close();
+  if (browser) await browser.close();
   server.close();
-  fs.rmSync(userDataDir, { recursive: true, force: true });
 }
