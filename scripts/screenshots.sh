@@ -1,0 +1,109 @@
+#!/usr/bin/env bash
+# Screenshots of the web viewer showing real run outputs, for docs/viewer.md. Takes them in
+# headless Chromium (Debian's /usr/bin/chromium via playwright-core, tools/viewer/e2e/screenshot.mjs)
+# and writes docs/images/results/*.png. Inputs that do not exist (yet) are skipped with a message.
+#
+#   scripts/screenshots.sh                  # RUNS=runs, OUT=docs/images/results
+#   RUNS=/work/runs scripts/screenshots.sh
+#
+# Inputs (under $RUNS), as scripts/reproduce_results.sh writes them:
+#   ablation/mi_1.0/play_left_leg_right_leg.json
+#   ablation/mask_no_mi/play_left_leg_right_leg.json  → base_walk_legs_masked.png (with | without MI)
+#   b_ours/switch.json                                → switch_before.png, switch_after.png
+#   track_ours/play.json                              → tracking.png
+#   ablation/{amp,mask_no_mi,mi_0.1,mi_1.0}/log.jsonl → training_logs.png (episode_length, mi_kl)
+# Times: WALK_T (default 3 s), SWITCH_T (the switch, default 5 s; pictures at SWITCH_T − 1 s and
+# SWITCH_T + 1.5 s), TRACK_T (default 4 s).
+set -uo pipefail
+repo="$(cd "$(dirname "$0")/.." && pwd)"
+RUNS="${RUNS:-runs}"
+OUT="${OUT:-$repo/docs/images/results}"
+WALK_T="${WALK_T:-3}"
+SWITCH_T="${SWITCH_T:-5}"
+TRACK_T="${TRACK_T:-4}"
+viewer="$repo/tools/viewer"
+shot=(node "$viewer/e2e/screenshot.mjs")
+
+if [[ ! -d "$viewer/node_modules" ]]; then
+  echo "screenshots: $viewer/node_modules is missing: run scripts/setup-viewer.sh first" >&2
+  exit 1
+fi
+if [[ ! -x "${MASKADAPT_CHROMIUM:-/usr/bin/chromium}" ]]; then
+  echo "screenshots: Chromium not found (apt-get install chromium)" >&2
+  exit 1
+fi
+# (Re)build the viewer when dist/ is missing or older than its sources.
+if [[ ! -f "$viewer/dist/index.html" ]] ||
+   [[ -n "$(find "$viewer/src" "$viewer/index.html" "$viewer/package-lock.json" -newer "$viewer/dist/index.html" -print -quit)" ]]; then
+  echo "screenshots: building the viewer (tools/viewer/dist)"
+  npm --prefix "$viewer" run build --silent >/dev/null || { echo "screenshots: viewer build failed" >&2; exit 1; }
+fi
+mkdir -p "$OUT"
+
+made=0 skipped=0 failed=0
+# have FILE... — true when every file exists, else prints what is missing.
+have() {
+  local f missing=()
+  for f in "$@"; do [[ -f "$f" ]] || missing+=("$f"); done
+  ((${#missing[@]} == 0)) && return 0
+  echo "screenshots: skip $picture: missing ${missing[*]}"
+  skipped=$((skipped + 1))
+  return 1
+}
+# take PNG ARGS... — one screenshot.
+take() {
+  local png="$OUT/$1"
+  shift
+  if "${shot[@]}" --out "$png" "$@"; then made=$((made + 1)); else failed=$((failed + 1)); fi
+}
+# Prints the command stored in a rollout's metadata (for the docs).
+command_of() {
+  node -e 'const r = JSON.parse(require("fs").readFileSync(process.argv[1], "utf8"));
+           console.log(`  ${process.argv[1]}: ${r.num_frames} frames, command: ${(r.metadata || {}).command || "?"}`)' "$1"
+}
+
+# (a) base policy walking with the legs masked: with vs without the MI loss (same seed).
+picture=base_walk_legs_masked.png
+a="$RUNS/ablation/mi_1.0/play_left_leg_right_leg.json"
+b="$RUNS/ablation/mask_no_mi/play_left_leg_right_leg.json"
+if have "$a" "$b"; then
+  command_of "$a"; command_of "$b"
+  take "$picture" --rollout "$a" --label "with MI (ablation/mi_1.0)" \
+    --rollout2 "$b" --label2 "without MI (ablation/mask_no_mi)" --time "$WALK_T"
+fi
+
+# (b) composition switch: before and after the switch.
+picture="switch_before.png, switch_after.png"
+s="$RUNS/b_ours/switch.json"
+if have "$s"; then
+  command_of "$s"
+  take switch_before.png --rollout "$s" --label "b_ours/switch.json" \
+    --time "$(awk -v t="$SWITCH_T" 'BEGIN { print t - 1 }')"
+  take switch_after.png --rollout "$s" --label "b_ours/switch.json" \
+    --time "$(awk -v t="$SWITCH_T" 'BEGIN { print t + 1.5 }')"
+fi
+
+# (c) tracking: text command and goal targets.
+picture=tracking.png
+t="$RUNS/track_ours/play.json"
+if have "$t"; then
+  command_of "$t"
+  take "$picture" --rollout "$t" --label "track_ours/play.json" --time "$TRACK_T"
+fi
+
+# (d) training logs of the ablation runs, overlaid.
+picture=training_logs.png
+logs=()
+for run in amp mask_no_mi mi_0.1 mi_1.0; do
+  f="$RUNS/ablation/$run/log.jsonl"
+  if [[ -f "$f" ]]; then logs+=(--log "$f"); else echo "screenshots: training_logs.png without $f (missing)"; fi
+done
+if ((${#logs[@]} > 0)); then
+  take "$picture" "${logs[@]}" --series episode_length --series mi_kl --height 520
+else
+  echo "screenshots: skip $picture: no ablation logs under $RUNS/ablation"
+  skipped=$((skipped + 1))
+fi
+
+echo "screenshots: $made written to $OUT, $skipped skipped, $failed failed"
+((failed == 0))
