@@ -36,15 +36,11 @@ def curves(out, key, runs):
     fig, ax = plt.subplots(figsize=(6.4, 3.6), dpi=120)
     for name, path in runs:
         rows = read_log(path)
-        samples, values = [], []
-        total = 0
-        for r in rows:
-            total = r.get("samples_total", total + r.get("samples", 0))
-            samples.append(total / 1e6)
-            values.append(r.get(key))
+        samples = [r["samples"] / 1e6 for r in rows]  # cumulative env samples
+        values = [r.get(key) for r in rows]
         ax.plot(samples, smooth(values), label=name)
     ax.set_xlabel("environment samples (millions)")
-    ax.set_ylabel(key + " (moving average of 9 iterations)")
+    ax.set_ylabel(key + "\n(moving mean of 9 iterations)", fontsize=9)
     ax.grid(alpha=0.3)
     ax.legend()
     fig.tight_layout()

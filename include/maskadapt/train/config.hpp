@@ -35,6 +35,10 @@ struct RunConfig {
   long long iterations = 500;      ///< iteration budget (0 = unlimited, then `minutes` must be > 0)
   double minutes = 0.0;            ///< wall-clock budget in minutes (0 = none); whichever ends first
   long long checkpoint_every = 50; ///< write a checkpoint every K iterations (and always at the end)
+  /// Also keep a copy `checkpoint_<it>.bin` of every periodic checkpoint. Off by default: a
+  /// checkpoint holds the discriminator's replay buffer (replay_size × 1,640 floats), so copies
+  /// add up quickly (a 30-minute run filled tens of GB with the old 100,000-window buffer).
+  bool keep_checkpoints = false;
   std::string out_dir = "runs/base";
   int threads = 0;                 ///< simulation threads (0 = hardware concurrency)
 };
@@ -92,7 +96,7 @@ struct DiscConfig {
   double gradient_penalty = 5.0;  ///< weight of ‖∇ₓD‖² on real samples
   double logit_reg = 0.01;        ///< L2 on the output layer weights
   double weight_decay = 1e-4;
-  int replay_size = 100000;       ///< agent windows kept for the replay buffer
+  int replay_size = 16384;        ///< agent windows kept for the replay buffer (16 cpu-preset iterations; 107 MB in a checkpoint)
   int batch_size = 512;           ///< agent (half fresh, half replay) and real samples per step
   int epochs = 1;                 ///< discriminator steps per iteration = epochs·samples/batch
   bool lsgan = false;             ///< least-squares form of the original AMP paper
@@ -165,6 +169,7 @@ inline BaseTrainConfig paper_preset() {
   c.ppo.minibatch_size = 16384;
   c.disc.lr = 1e-4;
   c.disc.batch_size = 4096;
+  c.disc.replay_size = 100000;
   c.run.iterations = 20000;
   c.run.checkpoint_every = 500;
   return c;
@@ -185,6 +190,7 @@ inline nlohmann::json to_json(const BaseTrainConfig& c) {
   j["preset"] = c.preset;
   j["run"] = {{"seed", c.run.seed},         {"iterations", c.run.iterations},
               {"minutes", c.run.minutes},   {"checkpoint_every", c.run.checkpoint_every},
+              {"keep_checkpoints", c.run.keep_checkpoints},
               {"out_dir", c.run.out_dir},   {"threads", c.run.threads}};
   j["env"] = {{"num_envs", c.env.num_envs},
               {"motions", c.env.motions},
@@ -243,6 +249,7 @@ inline BaseTrainConfig config_from_json(const nlohmann::json& j, const std::stri
     r.get("iterations", c.run.iterations);
     r.get("minutes", c.run.minutes);
     r.get("checkpoint_every", c.run.checkpoint_every);
+    r.get("keep_checkpoints", c.run.keep_checkpoints);
     r.get("out_dir", c.run.out_dir);
     r.get("threads", c.run.threads);
     r.finish();

@@ -21,7 +21,8 @@ struct RunOptions {
 /// Trains until `cfg.run.iterations` total iterations (counting those already done by a resumed
 /// trainer) or `cfg.run.minutes` of wall time, whichever comes first. Writes
 /// `<out>/config.json`, `<out>/log.jsonl`, `<out>/checkpoint.bin` (every checkpoint_every
-/// iterations and at the end) and `<out>/checkpoint_<it>.bin` copies. Returns the last stats.
+/// iterations and at the end) and, with `run.keep_checkpoints`, `<out>/checkpoint_<it>.bin`
+/// copies of the periodic ones. Returns the last stats.
 template <class Trainer>
 IterationStats run_training(Trainer& trainer, const RunOptions& opt = {}) {
   const BaseTrainConfig& cfg = trainer.config();
@@ -36,7 +37,8 @@ IterationStats run_training(Trainer& trainer, const RunOptions& opt = {}) {
   IterationStats st;
   auto checkpoint = [&](bool keep_copy) {
     trainer.save((out / "checkpoint.bin").string());
-    if (keep_copy) trainer.save((out / ("checkpoint_" + std::to_string(trainer.iteration()) + ".bin")).string());
+    if (keep_copy && cfg.run.keep_checkpoints)
+      trainer.save((out / ("checkpoint_" + std::to_string(trainer.iteration()) + ".bin")).string());
   };
   while (true) {
     if (cfg.run.iterations > 0 && trainer.iteration() >= cfg.run.iterations) break;
