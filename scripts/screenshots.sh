@@ -13,14 +13,14 @@
 #   track_ours/play.json                              → tracking.png
 #   ablation/{amp,mask_no_mi,mi_0.1,mi_1.0}/log.jsonl → training_logs.png (episode_length, mi_kl)
 # Times: WALK_T (default 0.6 s: the short CPU-trained bases fall after ≈1 s), SWITCH_T (the switch, default 5 s; pictures at SWITCH_T − 1 s and
-# SWITCH_T + 1.5 s), TRACK_T (default 4 s).
+# SWITCH_T + 1.5 s), TRACK_T (default 0.6 s, before the fall).
 set -uo pipefail
 repo="$(cd "$(dirname "$0")/.." && pwd)"
 RUNS="${RUNS:-runs}"
 OUT="${OUT:-$repo/docs/images/results}"
 WALK_T="${WALK_T:-0.6}"
 SWITCH_T="${SWITCH_T:-5}"
-TRACK_T="${TRACK_T:-4}"
+TRACK_T="${TRACK_T:-0.6}"
 viewer="$repo/tools/viewer"
 shot=(node "$viewer/e2e/screenshot.mjs")
 
