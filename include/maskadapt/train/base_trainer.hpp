@@ -35,6 +35,7 @@
 #include <maskadapt/rl/rollout_buffer.hpp>
 #include <maskadapt/tasks/imitation.hpp>
 #include <maskadapt/train/base_policy.hpp>
+#include <maskadapt/train/task_state.hpp>
 #include <maskadapt/train/config.hpp>
 #include <maskadapt/train/progress.hpp>
 
@@ -152,25 +153,7 @@ class BaseTrainer {
     c.put_rng("trainer/rng", rng_);
     c.put_int("trainer/iteration", iteration_);
     c.put_int("trainer/samples", samples_);
-    const auto ts = task_.save_state();
-    const auto n = static_cast<Index>(ts.rngs.size());
-    for (Index e = 0; e < n; ++e) {
-      const auto ue = static_cast<std::size_t>(e);
-      Rng r;
-      r.set_state(ts.rngs[ue]);
-      c.put_rng("task/rng/" + std::to_string(e), r);
-      c.put("task/history/" + std::to_string(e), ts.history[ue]);
-      if (!ts.sim.empty()) c.put("task/sim/" + std::to_string(e), Eigen::Map<const VectorXd>(ts.sim[ue].data(), static_cast<Index>(ts.sim[ue].size())));
-    }
-    VectorX<std::int64_t> steps(n), masks(n);
-    for (Index e = 0; e < n; ++e) {
-      steps[e] = ts.steps[static_cast<std::size_t>(e)];
-      masks[e] = ts.masks[static_cast<std::size_t>(e)];
-    }
-    c.put("task/steps", steps);
-    c.put("task/masks", masks);
-    c.put("task/obs", ts.obs);
-    c.put_int("task/has_sim_state", ts.sim.empty() ? 0 : 1);
+    save_task_state(c, "task/", task_);
   }
 
   void save(const std::string& path) const {
@@ -195,23 +178,7 @@ class BaseTrainer {
     rng_.set_state(c.get_rng("trainer/rng"));
     iteration_ = c.get_int("trainer/iteration");
     samples_ = c.get_int("trainer/samples");
-    typename tasks::ImitationTask<Sim>::State ts;
-    const Index n = task_.num_envs();
-    const auto steps = c.get_vector<std::int64_t>("task/steps", n);
-    const auto masks = c.get_vector<std::int64_t>("task/masks", n);
-    const bool has_sim = c.get_int("task/has_sim_state") != 0;
-    for (Index e = 0; e < n; ++e) {
-      ts.rngs.push_back(c.get_rng("task/rng/" + std::to_string(e)));
-      ts.history.push_back(c.get_matrix<float>("task/history/" + std::to_string(e), task_.obs_dim(), tasks::kAmpWindowFrames));
-      ts.steps.push_back(steps[e]);
-      ts.masks.push_back(static_cast<std::uint8_t>(masks[e]));
-      if (has_sim) {
-        const VectorXd v = c.get_vector<double>("task/sim/" + std::to_string(e));
-        ts.sim.emplace_back(v.data(), v.data() + v.size());
-      }
-    }
-    ts.obs = c.get_matrix<float>("task/obs", task_.obs_dim(), n);
-    task_.load_state(ts);
+    load_task_state(c, "task/", task_);
   }
 
  private:

@@ -48,6 +48,7 @@
 #include <maskadapt/tracking/goals.hpp>
 #include <maskadapt/train/config.hpp>
 #include <maskadapt/train/progress.hpp>
+#include <maskadapt/train/task_state.hpp>
 
 #include <nlohmann/json.hpp>
 
@@ -461,23 +462,7 @@ class ResidualTrainer {
       c.put_rng("state/mask_rng/" + std::to_string(e), masks_.rngs()[static_cast<std::size_t>(e)]);
     }
     c.put("state/masks", masks);
-    const auto ts = task_.save_state();
-    VectorX<std::int64_t> steps(N), tmask(N);
-    for (Index e = 0; e < N; ++e) {
-      const auto ue = static_cast<std::size_t>(e);
-      Rng r;
-      r.set_state(ts.rngs[ue]);
-      c.put_rng("state/task/rng/" + std::to_string(e), r);
-      c.put("state/task/history/" + std::to_string(e), ts.history[ue]);
-      if (!ts.sim.empty())
-        c.put("state/task/sim/" + std::to_string(e), Eigen::Map<const VectorXd>(ts.sim[ue].data(), static_cast<Index>(ts.sim[ue].size())));
-      steps[e] = ts.steps[ue];
-      tmask[e] = ts.masks[ue];
-    }
-    c.put("state/task/steps", steps);
-    c.put("state/task/masks", tmask);
-    c.put("state/task/obs", ts.obs);
-    c.put_int("state/task/has_sim", ts.sim.empty() ? 0 : 1);
+    save_task_state(c, "state/task/", task_);
     if (!setup_.tracking) return;
     c.put_int("state/goals/count", static_cast<std::int64_t>(goals_.trajectories.size()));
     for (std::size_t i = 0; i < goals_.trajectories.size(); ++i) {
@@ -528,22 +513,7 @@ class ResidualTrainer {
       masks_.set(e, PartMask{static_cast<std::uint8_t>(masks[e])});
       masks_.rngs()[static_cast<std::size_t>(e)].set_state(c.get_rng("state/mask_rng/" + std::to_string(e)));
     }
-    typename tasks::ImitationTask<Sim>::State ts;
-    const auto steps = c.get_vector<std::int64_t>("state/task/steps", N);
-    const auto tmask = c.get_vector<std::int64_t>("state/task/masks", N);
-    const bool has_sim = c.get_int("state/task/has_sim") != 0;
-    for (Index e = 0; e < N; ++e) {
-      ts.rngs.push_back(c.get_rng("state/task/rng/" + std::to_string(e)));
-      ts.history.push_back(c.get_matrix<float>("state/task/history/" + std::to_string(e), task_.obs_dim(), tasks::kAmpWindowFrames));
-      ts.steps.push_back(steps[e]);
-      ts.masks.push_back(static_cast<std::uint8_t>(tmask[e]));
-      if (has_sim) {
-        const VectorXd v = c.get_vector<double>("state/task/sim/" + std::to_string(e));
-        ts.sim.emplace_back(v.data(), v.data() + v.size());
-      }
-    }
-    ts.obs = c.get_matrix<float>("state/task/obs", task_.obs_dim(), N);
-    task_.load_state(ts);
+    load_task_state(c, "state/task/", task_);
     if (!setup_.tracking) return;
     const Skeleton& skel = task_.sim().skeleton();
     const auto count = static_cast<std::size_t>(c.get_int("state/goals/count"));
