@@ -5,9 +5,12 @@
 #include <benchmark/benchmark.h>
 
 #include <immintrin.h>
+#include <malloc.h>
 
 #include <vector>
 
+#include "maskadapt/core/blas_threads.hpp"
+#include "maskadapt/core/thread_pool.hpp"
 #include "maskadapt/nn/kl.hpp"
 #include "maskadapt/nn/mlp.hpp"
 
@@ -59,18 +62,50 @@ void BM_FmaPeak(benchmark::State& state) {
 }
 BENCHMARK(BM_FmaPeak)->Threads(1)->Threads(2)->UseRealTime();
 
-/// Streaming floor for batch-1 inference: read as many bytes as the network's parameters.
+/// Streaming floor for batch-1 inference: read as many bytes as the network's parameters, split
+/// over the benchmark's threads (each sums its share). The 7.8 MB of the big net fit in the 32 MB
+/// L3, so in a hot loop this is an L3 floor, not a DRAM one.
 void BM_WeightStreamFloor(benchmark::State& state) {
   const MlpSpec spec = state.range(0) == 0 ? big_spec() : small_spec();
-  Eigen::VectorXf w = Eigen::VectorXf::Ones(spec.num_params());
+  static Eigen::VectorXf w;  // shared by the threads
+  if (state.thread_index() == 0) w = Eigen::VectorXf::Ones(spec.num_params());
+  const Index n = spec.num_params(), T = state.threads(), t = state.thread_index();
+  const Index lo = n * t / T, hi = n * (t + 1) / T;
   for (auto _ : state) {
-    float s = w.sum();
+    float s = w.segment(lo, hi - lo).sum();
     benchmark::DoNotOptimize(s);
   }
-  state.counters["bytes"] = double(w.size()) * 4;
-  state.counters["GB/s"] = benchmark::Counter(double(w.size()) * 4 * double(state.iterations()), benchmark::Counter::kIsRate);
+  state.counters["bytes"] = double(n) * 4;
 }
-BENCHMARK(BM_WeightStreamFloor)->Arg(0)->Arg(1)->ArgNames({"small"})->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_WeightStreamFloor)->Arg(0)->Arg(1)->ArgNames({"small"})->Threads(1)->Threads(2)->UseRealTime()
+    ->Unit(benchmark::kMicrosecond);
+
+/// The same two-way split read through maskadapt's ThreadPool: the floor for a batch-1 forward
+/// that hands its rows to the pool, wake-up cost included.
+void BM_WeightStreamFloorPool(benchmark::State& state) {
+  const MlpSpec spec = state.range(0) == 0 ? big_spec() : small_spec();
+  const Eigen::VectorXf w = Eigen::VectorXf::Ones(spec.num_params());
+  ThreadPool pool(2);
+  float part[2];
+  const Index n = w.size();
+  for (auto _ : state) {
+    pool.parallel_for(0, 2, [&](std::size_t t) {
+      const Index lo = n * Index(t) / 2, hi = n * Index(t + 1) / 2;
+      part[t] = w.segment(lo, hi - lo).sum();
+    });
+    benchmark::DoNotOptimize(part);
+  }
+}
+BENCHMARK(BM_WeightStreamFloorPool)->Arg(0)->Arg(1)->ArgNames({"small"})->UseRealTime()->Unit(benchmark::kMicrosecond);
+
+/// Parallel scheme of a maskadapt benchmark: range "pool" = 0 → OpenBLAS threads each GEMM
+/// (2 threads, no pool); 1 → OpenBLAS at 1 thread and a 2-thread maskadapt ThreadPool runs the
+/// Mlp's fixed chunks (nn/chunks.hpp).
+ThreadPool* scheme(Index pool_mode) {
+  static ThreadPool pool(2);
+  set_blas_threads(pool_mode == 1 ? 1 : 2);
+  return pool_mode == 1 ? &pool : nullptr;
+}
 
 // ---- maskadapt ----------------------------------------------------------------------------------
 
@@ -82,6 +117,7 @@ void BM_MlpForward(benchmark::State& state) {
   const Eigen::MatrixXf x = random_input(spec.inputs, batch);
   Eigen::MatrixXf y(spec.outputs, batch);
   InferenceWorkspace<float> ws;
+  ws.pool = scheme(state.range(2));
   net.forward(x, y, ws);
   for (auto _ : state) {
     net.forward(x, y, ws);
@@ -91,8 +127,8 @@ void BM_MlpForward(benchmark::State& state) {
                                                benchmark::Counter::kIsRate);
 }
 BENCHMARK(BM_MlpForward)
-    ->Args({4096, 0})->Args({256, 0})->Args({1, 0})->Args({1, 1})
-    ->ArgNames({"batch", "small"})->Unit(benchmark::kMicrosecond)->UseRealTime();
+    ->ArgsProduct({{4096, 256}, {0}, {0, 1}})->ArgsProduct({{1}, {0, 1}, {0, 1}})
+    ->ArgNames({"batch", "small", "pool"})->Unit(benchmark::kMicrosecond)->UseRealTime();
 
 void BM_MlpForwardBackward(benchmark::State& state) {
   const Index batch = state.range(0);
@@ -102,6 +138,7 @@ void BM_MlpForwardBackward(benchmark::State& state) {
   const Eigen::MatrixXf x = random_input(spec.inputs, batch);
   const Eigen::MatrixXf dy = random_input(spec.outputs, batch);
   TrainCache<float> cache;
+  cache.pool = scheme(state.range(1));
   for (auto _ : state) {
     net.zero_grad();
     net.forward_train(x, cache);
@@ -113,7 +150,8 @@ void BM_MlpForwardBackward(benchmark::State& state) {
   state.counters["FLOPS"] =
       benchmark::Counter(2 * macs * double(batch) * double(state.iterations()), benchmark::Counter::kIsRate);
 }
-BENCHMARK(BM_MlpForwardBackward)->Arg(4096)->Arg(256)->ArgNames({"batch"})->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK(BM_MlpForwardBackward)
+    ->ArgsProduct({{4096, 256}, {0, 1}})->ArgNames({"batch", "pool"})->Unit(benchmark::kMillisecond)->UseRealTime();
 
 void BM_KlWithGradient(benchmark::State& state) {
   const Index d = 63, B = state.range(0);
@@ -144,8 +182,16 @@ torch::nn::Sequential torch_mlp(const MlpSpec& s) {
   return seq;
 }
 
+/// LibTorch's intra-op threads: 1 is its best setting on this machine (OpenBLAS, which it calls
+/// for the GEMMs, still runs 2 threads); its default 2 makes its OpenMP pool and OpenBLAS's threads
+/// fight. The torch_threads:2 rows show that.
+void torch_setting(Index torch_threads) {
+  set_blas_threads(2);
+  torch::set_num_threads(static_cast<int>(torch_threads));
+}
+
 void BM_TorchMlpForward(benchmark::State& state) {
-  torch::set_num_threads(1);  // best setting measured on this machine (OpenBLAS still threads)
+  torch_setting(1);
   torch::NoGradGuard no_grad;
   const Index batch = state.range(0);
   const MlpSpec spec = state.range(1) == 0 ? big_spec() : small_spec();
@@ -163,7 +209,7 @@ BENCHMARK(BM_TorchMlpForward)
     ->ArgNames({"batch", "small"})->Unit(benchmark::kMicrosecond)->UseRealTime();
 
 void BM_TorchMlpForwardBackward(benchmark::State& state) {
-  torch::set_num_threads(1);
+  torch_setting(state.range(1));
   const Index batch = state.range(0);
   const MlpSpec spec = big_spec();
   auto net = torch_mlp(spec);
@@ -179,10 +225,12 @@ void BM_TorchMlpForwardBackward(benchmark::State& state) {
   state.counters["FLOPS"] =
       benchmark::Counter(2 * macs * double(batch) * double(state.iterations()), benchmark::Counter::kIsRate);
 }
-BENCHMARK(BM_TorchMlpForwardBackward)->Arg(4096)->Arg(256)->ArgNames({"batch"})->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK(BM_TorchMlpForwardBackward)
+    ->Args({4096, 1})->Args({256, 1})->Args({4096, 2})->ArgNames({"batch", "torch_threads"})
+    ->Unit(benchmark::kMillisecond)->UseRealTime();
 
 void BM_TorchKlWithGradient(benchmark::State& state) {
-  torch::set_num_threads(1);
+  torch_setting(1);
   const long d = 63, B = state.range(0);
   auto mp = torch::randn({B, d}), lp = torch::full({d}, -0.5f);
   auto mq = (torch::randn({B, d}) * 0.5).requires_grad_(true);
@@ -203,4 +251,16 @@ BENCHMARK(BM_TorchKlWithGradient)->Arg(4096)->ArgNames({"batch"})->Unit(benchmar
 
 }  // namespace
 
-BENCHMARK_MAIN();
+int main(int argc, char** argv) {
+  // LibTorch allocates fresh tensors every iteration; with glibc's default mmap threshold its
+  // ~1 MB buffers are mmap'ed and page-faulted afresh each time (measured: KL 1.8 ms instead of
+  // 0.7 ms, depending on what ran before). Keep big blocks on the heap so it runs at its best
+  // whatever the order. maskadapt's kernels allocate nothing per iteration either way.
+  mallopt(M_MMAP_THRESHOLD, 256 << 20);
+  mallopt(M_TRIM_THRESHOLD, 512 << 20);
+  benchmark::Initialize(&argc, argv);
+  if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
+  benchmark::RunSpecifiedBenchmarks();
+  benchmark::Shutdown();
+  return 0;
+}

@@ -42,3 +42,20 @@ TEST(ThreadPool, ExceptionsPropagateToCaller) {
   pool.parallel_for(0, 10, [&](std::size_t) { n++; });
   EXPECT_EQ(n.load(), 10);
 }
+
+TEST(ThreadPool, NestedParallelForRunsSeriallyInsteadOfDeadlocking) {
+  ThreadPool pool(2);
+  std::vector<std::atomic<int>> hits(8 * 16);
+  std::atomic<int> nested_in_region{0};
+  EXPECT_FALSE(ThreadPool::in_parallel_region());
+  pool.parallel_for(0, 8, [&](std::size_t i) {
+    EXPECT_TRUE(ThreadPool::in_parallel_region());
+    pool.parallel_for(0, 16, [&](std::size_t k) {
+      if (ThreadPool::in_parallel_region()) nested_in_region++;
+      hits[i * 16 + k]++;
+    });
+  });
+  EXPECT_FALSE(ThreadPool::in_parallel_region());
+  for (auto& h : hits) ASSERT_EQ(h.load(), 1);
+  EXPECT_EQ(nested_in_region.load(), 8 * 16);
+}

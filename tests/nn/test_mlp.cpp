@@ -153,3 +153,96 @@ TEST(Mlp, BadShapesThrow) {
   Mlp<float> empty;
   EXPECT_THROW(empty.forward(Eigen::MatrixXf::Zero(3, 1)), Error);
 }
+
+// The chunked, pool-parallel products (nn/chunks.hpp) against the layer formulas written out
+// directly, in double, on shapes that exercise every split: columns (batch ≥ out), rows
+// (out > batch), gW by rows (out ≥ in) and by columns (out < in), and products too small to split.
+TEST(Mlp, ChunkedProductsMatchDirectLayerFormulas) {
+  Rng rng(42);
+  const std::pair<MlpSpec, Index> cases[] = {
+      {MlpSpec{150, {300, 140}, 70, Activation::ELU, Activation::Tanh}, 260},  // every split kind
+      {MlpSpec{400, {1200, 300}, 70, Activation::ELU, Activation::Tanh}, 24},  // small batch: rows
+      {MlpSpec{150, {300, 140}, 70, Activation::ELU, Activation::Tanh}, 3},    // below kMinChunkedMacs
+  };
+  for (const auto& [spec, batch] : cases) {
+    ASSERT_EQ(double(spec.hidden[0]) * double(spec.inputs) * double(batch) >= kMinChunkedMacs, batch != 3);
+    Mlp<double> net(spec, rng);
+    const Eigen::MatrixXd x = random_matrix(rng, spec.inputs, batch);
+    const Eigen::MatrixXd dy = random_matrix(rng, spec.outputs, batch);
+    auto f = [](Activation a) { return [a](double z) { return activation_value(a, z); }; };
+    auto df = [](Activation a) { return [a](double z) { return activation_derivative(a, z); }; };
+
+    // Direct formulas.
+    std::vector<Eigen::MatrixXd> in(3), pre(3);
+    Eigen::MatrixXd a = x;
+    for (Index l = 0; l < 3; ++l) {
+      in[l] = a;
+      pre[l] = (net.weight(l) * a).colwise() + Eigen::VectorXd(net.bias(l));
+      a = pre[l].unaryExpr(f(spec.layer_activation(l)));
+    }
+    Eigen::VectorXd g_ref = Eigen::VectorXd::Zero(net.num_params());
+    Eigen::MatrixXd d = dy.cwiseProduct(pre[2].unaryExpr(df(spec.output_activation))), dx_ref;
+    for (Index l = 2; l >= 0; --l) {
+      Eigen::Map<Eigen::MatrixXd>(g_ref.data() + net.weight_offset(l), spec.layer_outputs(l), spec.layer_inputs(l)) =
+          d * in[l].transpose();
+      g_ref.segment(net.bias_offset(l), spec.layer_outputs(l)) = d.rowwise().sum();
+      const Eigen::MatrixXd da = net.weight(l).transpose() * d;
+      if (l > 0) d = da.cwiseProduct(pre[l - 1].unaryExpr(df(spec.activation)));
+      else dx_ref = da;
+    }
+
+    for (std::size_t threads : {0u, 1u, 2u, 3u}) {
+      ThreadPool pool(threads == 0 ? 1 : threads);
+      ThreadPool* p = threads == 0 ? nullptr : &pool;
+      InferenceWorkspace<double> ws;
+      ws.pool = p;
+      Eigen::MatrixXd y(spec.outputs, batch);
+      net.forward(x, y, ws);
+      EXPECT_LT((y - a).cwiseAbs().maxCoeff(), 1e-12) << "batch " << batch << ", " << threads << " threads";
+      TrainCache<double> cache;
+      cache.pool = p;
+      net.forward_train(x, cache);
+      EXPECT_LT((cache.output() - a).cwiseAbs().maxCoeff(), 1e-12);
+      net.zero_grad();
+      Eigen::MatrixXd dx;
+      net.backward(cache, dy, net.grads(), &dx);
+      EXPECT_LT((net.grads() - g_ref).cwiseAbs().maxCoeff(), 1e-10) << "batch " << batch << ", " << threads;
+      EXPECT_LT((dx - dx_ref).cwiseAbs().maxCoeff(), 1e-10) << "batch " << batch << ", " << threads;
+    }
+  }
+}
+
+// Same seed and data → bit-identical outputs and gradients with no pool and pools of 1, 2, 3
+// threads (the chunk partition depends on shapes only).
+TEST(Mlp, PoolSizeDoesNotChangeAnyBit) {
+  Rng init(9);
+  const MlpSpec spec{330, {256, 200}, 63};
+  Mlp<float> net(spec, init);
+  Rng rng(10);
+  const Eigen::MatrixXf x = random_matrix(rng, spec.inputs, 515).cast<float>();
+  const Eigen::MatrixXf dy = random_matrix(rng, spec.outputs, 515).cast<float>();
+  auto run = [&](ThreadPool* p, Eigen::MatrixXf& y, Eigen::VectorXf& g, Eigen::MatrixXf& dx) {
+    InferenceWorkspace<float> ws;
+    ws.pool = p;
+    y.resize(spec.outputs, x.cols());
+    net.forward(x, y, ws);
+    TrainCache<float> cache;
+    cache.pool = p;
+    net.forward_train(x, cache);
+    net.zero_grad();
+    net.backward(cache, dy, net.grads(), &dx);
+    g = net.grads();
+  };
+  Eigen::MatrixXf y0, dx0;
+  Eigen::VectorXf g0;
+  run(nullptr, y0, g0, dx0);
+  for (std::size_t threads : {1u, 2u, 3u}) {
+    ThreadPool pool(threads);
+    Eigen::MatrixXf y, dx;
+    Eigen::VectorXf g;
+    run(&pool, y, g, dx);
+    EXPECT_TRUE(y == y0) << threads << " threads";
+    EXPECT_TRUE(g == g0) << threads << " threads";
+    EXPECT_TRUE(dx == dx0) << threads << " threads";
+  }
+}

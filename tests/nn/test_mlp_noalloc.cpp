@@ -78,3 +78,33 @@ TEST(MlpNoAlloc, TrainingPassReusesCache) {
   Eigen::internal::set_is_malloc_allowed(true);
   EXPECT_TRUE(ok) << "forward_train/backward allocated with a warm cache";
 }
+
+// With a pool the chunked products run on two threads; still no allocation (the pool's job is a
+// std::function holding one reference, inside its small-object buffer). Eigen's own GEMM
+// allocates blocking buffers for products this size, so this holds with the BLAS backend only.
+TEST(MlpNoAlloc, ForwardOnAPoolAllocatesNothingAfterWarmup) {
+#if !defined(MASKADAPT_HAS_BLAS)
+  GTEST_SKIP() << "built without EIGEN_USE_BLAS: Eigen's GEMM allocates its blocking buffers";
+#endif
+  Rng rng(3);
+  Mlp<float> net(MlpSpec{64, {512, 512}, 16}, rng);
+  ASSERT_GE(512.0 * 512.0 * 256.0, kMinChunkedMacs);  // the middle layer really is split
+  Eigen::MatrixXf x = Eigen::MatrixXf::Random(64, 256), y(16, 256);
+  ThreadPool pool(2);
+  InferenceWorkspace<float> ws;
+  ws.pool = &pool;
+  net.forward(x, y, ws);
+  const Eigen::MatrixXf expected = y;
+  const long news_before = g_news.load();
+  Eigen::internal::set_is_malloc_allowed(false);
+  bool threw = false;
+  try {
+    for (int k = 0; k < 3; ++k) net.forward(x, y, ws);
+  } catch (...) {
+    threw = true;
+  }
+  Eigen::internal::set_is_malloc_allowed(true);
+  EXPECT_FALSE(threw) << "forward on a pool allocated through Eigen";
+  EXPECT_EQ(g_news.load(), news_before) << "operator new called during forward on a pool";
+  EXPECT_TRUE(y == expected);
+}

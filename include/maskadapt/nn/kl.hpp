@@ -12,6 +12,7 @@
 ///
 /// The mask-invariant loss uses p = π(·|s, m⁰) as a fixed target (stop-gradient) and
 /// q = π(·|s̄, m) as the learner: pass `stop_gradient_p = true` (or null p-outputs).
+#include <algorithm>
 #include <cmath>
 #include <string>
 
@@ -55,43 +56,168 @@ void prepare_grad(MatrixX<T>* g, const Eigen::Ref<const MatrixX<T>>& like, const
   check_same_shape<T>(*g, like.rows(), like.cols(), std::string("kl gradient.") + field);
 }
 
+/// The hot case, both log-stds shared (d × 1): one fused, vectorisable pass per column.
+/// inv_vq = 1/σq², c_sum = Σ_i (logσq − logσp + ½σp²/σq² − ½), r = σp²/σq².
+template <class T, class DklFn>
+void kl_shared_columns(const Eigen::Ref<const MatrixX<T>>& mean_p, const Eigen::Ref<const MatrixX<T>>& mean_q,
+                       const Eigen::Array<T, Eigen::Dynamic, 1>& inv_vq, T c_sum, RowVectorX<T>* kl_out,
+                       const DklFn& dkl, const KlGrads<T>& g, bool any_grad, const Eigen::Array<T, Eigen::Dynamic, 1>& r) {
+  using Col = Eigen::Array<T, Eigen::Dynamic, 1>;
+  const Index d = mean_p.rows(), B = mean_p.cols();
+  Col scaled(d), t(d);  // (μp − μq)/σq², (μp − μq)²/σq²
+  Col glq = Col::Zero(g.log_std_q ? d : 0);
+  T w_sum = 0;
+  const T* ivq = inv_vq.data();
+  for (Index j = 0; j < B; ++j) {
+    const T* mp = mean_p.col(j).data();
+    const T* mq = mean_q.col(j).data();
+    T* sc = scaled.data();
+    T* tt = t.data();
+    for (Index i = 0; i < d; ++i) {
+      const T diff = mp[i] - mq[i];
+      sc[i] = diff * ivq[i];
+      tt[i] = diff * sc[i];
+    }
+    if (kl_out) (*kl_out)[j] = c_sum + T(0.5) * t.sum();
+    if (!any_grad) continue;
+    const T w = dkl(j);
+    w_sum += w;
+    if (g.mean_p) {
+      T* gp = g.mean_p->col(j).data();
+      for (Index i = 0; i < d; ++i) gp[i] += w * sc[i];
+    }
+    if (g.mean_q) {
+      T* gq = g.mean_q->col(j).data();
+      for (Index i = 0; i < d; ++i) gq[i] -= w * sc[i];
+    }
+    if (g.log_std_q) {
+      T* gl = glq.data();
+      for (Index i = 0; i < d; ++i) gl[i] -= w * tt[i];
+    }
+  }
+  // The batch-constant parts of ∂/∂logσp = r − 1 and ∂/∂logσq = 1 − r − t, added once.
+  if (g.log_std_p) g.log_std_p->col(0).array() += w_sum * (r - T(1));
+  if (g.log_std_q) g.log_std_q->col(0).array() += glq + w_sum * (T(1) - r);
+}
+
+/// kl_shared_columns for the fused mean (kl_diag_gaussian_mean): the same weight w for every
+/// sample and no per-sample output, so the (d × B) block is walked as one flat array in tiles of
+/// whole columns — no short per-column loops with scalar tails. Needs contiguous means and
+/// gradients. Returns Σ_j KL_j.
+template <class T>
+T kl_shared_flat(const Eigen::Ref<const MatrixX<T>>& mean_p, const Eigen::Ref<const MatrixX<T>>& mean_q,
+                 const Eigen::Array<T, Eigen::Dynamic, 1>& inv_vq, T c_sum, T w, const KlGrads<T>& g,
+                 const Eigen::Array<T, Eigen::Dynamic, 1>& r) {
+  using Col = Eigen::Array<T, Eigen::Dynamic, 1>;
+  const Index d = mean_p.rows(), B = mean_p.cols(), n = d * B;
+  const Index tile_cols = std::max<Index>(1, 2048 / d), tile = tile_cols * d;
+  Col ivq_tiled(tile), acc = Col::Zero(tile);  // 1/σq² repeated per column; Σ over tiles of t
+  for (Index c = 0; c < tile_cols; ++c) ivq_tiled.segment(c * d, d) = inv_vq;
+  const T* mp = mean_p.data();
+  const T* mq = mean_q.data();
+  auto run = [&]<bool kGradP, bool kGradQ>() {
+    T* gp = kGradP ? g.mean_p->data() : nullptr;
+    T* gq = kGradQ ? g.mean_q->data() : nullptr;
+    const T* ivq = ivq_tiled.data();
+    T* a = acc.data();
+    for (Index k0 = 0; k0 < n; k0 += tile) {
+      const Index m = std::min(tile, n - k0);
+      for (Index k = 0; k < m; ++k) {
+        const T diff = mp[k0 + k] - mq[k0 + k];
+        const T sc = diff * ivq[k];  // (μp − μq)/σq²
+        a[k] += diff * sc;           // t = (μp − μq)²/σq²
+        if constexpr (kGradP) gp[k0 + k] += w * sc;
+        if constexpr (kGradQ) gq[k0 + k] -= w * sc;
+      }
+    }
+  };
+  if (g.mean_p && g.mean_q) run.template operator()<true, true>();
+  else if (g.mean_p) run.template operator()<true, false>();
+  else if (g.mean_q) run.template operator()<false, true>();
+  else run.template operator()<false, false>();
+  const T w_sum = w * static_cast<T>(B);
+  if (g.log_std_p) g.log_std_p->col(0).array() += w_sum * (r - T(1));
+  if (g.log_std_q) {
+    Col t_sum = Col::Zero(d);  // Σ_j t_ij
+    for (Index c = 0; c < tile_cols; ++c) t_sum += acc.segment(c * d, d);
+    g.log_std_q->col(0).array() += w_sum * (T(1) - r) - w * t_sum;
+  }
+  return static_cast<T>(B) * c_sum + T(0.5) * acc.sum();
+}
+
 /// Shared kernel: writes per-sample KL to kl_out (if non-null) and adds dkl_j·∂KL_j/∂· into grads.
+///
+/// With both log-stds shared (d × 1) — the policy's state-independent σ — every exponential and
+/// the per-dimension constant are computed once and kl_shared_columns does one fused pass per
+/// column; otherwise the terms are recomputed column by column.
 template <class T, class DklFn>
 void kl_kernel(const Eigen::Ref<const MatrixX<T>>& mean_p, const Eigen::Ref<const MatrixX<T>>& log_std_p,
                const Eigen::Ref<const MatrixX<T>>& mean_q, const Eigen::Ref<const MatrixX<T>>& log_std_q,
-               RowVectorX<T>* kl_out, const DklFn& dkl, KlGrads<T> g, bool stop_gradient_p) {
+               RowVectorX<T>* kl_out, const DklFn& dkl, KlGrads<T> g, bool stop_gradient_p,
+               T* kl_sum = nullptr, bool constant_weight = false) {
+  using Col = Eigen::Array<T, Eigen::Dynamic, 1>;
   if (stop_gradient_p) g.mean_p = g.log_std_p = nullptr;
   prepare_grad<T>(g.mean_p, mean_p, "mean_p");
   prepare_grad<T>(g.log_std_p, log_std_p, "log_std_p");
   prepare_grad<T>(g.mean_q, mean_q, "mean_q");
   prepare_grad<T>(g.log_std_q, log_std_q, "log_std_q");
   const bool any_grad = g.mean_p || g.log_std_p || g.mean_q || g.log_std_q;
-  const bool p_shared = log_std_p.cols() == 1, q_shared = log_std_q.cols() == 1;
-  const Index d = mean_p.rows();
-  // With (d × 1) log-stds the exponentials depend on i only: compute them once.
-  VectorX<T> inv_vq_shared, r_shared;
-  if (q_shared) inv_vq_shared = (T(-2) * log_std_q.col(0).array()).exp().matrix();
-  if (p_shared && q_shared) r_shared = (T(2) * (log_std_p.col(0) - log_std_q.col(0)).array()).exp().matrix();
-  for (Index j = 0; j < mean_p.cols(); ++j) {
-    const T w = any_grad ? dkl(j) : T(0);
-    T acc = 0;
-    for (Index i = 0; i < d; ++i) {
-      const T lsp = ls_at(log_std_p, i, j), lsq = ls_at(log_std_q, i, j);
-      const T inv_vq = q_shared ? inv_vq_shared[i] : std::exp(T(-2) * lsq);
-      const T r = (p_shared && q_shared) ? r_shared[i] : std::exp(T(2) * (lsp - lsq));  // σp²/σq²
-      const T diff = mean_p(i, j) - mean_q(i, j);
-      const T t = diff * diff * inv_vq;
-      acc += (lsq - lsp) + T(0.5) * (r + t) - T(0.5);
-      if (any_grad) {
-        const T gm = w * diff * inv_vq;
-        if (g.mean_p) (*g.mean_p)(i, j) += gm;
-        if (g.mean_q) (*g.mean_q)(i, j) -= gm;
-        if (g.log_std_p) (*g.log_std_p)(i, p_shared ? 0 : j) += w * (r - T(1));
-        if (g.log_std_q) (*g.log_std_q)(i, q_shared ? 0 : j) += w * (T(1) - r - t);
-      }
-    }
-    if (kl_out) (*kl_out)[j] = acc;
+  const bool p_shared = log_std_p.cols() == 1, q_shared = log_std_q.cols() == 1, both_shared = p_shared && q_shared;
+  const Index d = mean_p.rows(), B = mean_p.cols();
+  // Per-dimension terms; recomputed per column only where a log-std is per-sample.
+  Col inv_vq(d), r(d), c(d);  // 1/σq², σp²/σq², logσq − logσp + ½r − ½
+  auto set_terms = [&](Index j) {
+    const auto lsp = log_std_p.col(p_shared ? 0 : j).array();
+    const auto lsq = log_std_q.col(q_shared ? 0 : j).array();
+    inv_vq = (T(-2) * lsq).exp();
+    r = (T(2) * (lsp - lsq)).exp();
+    c = (lsq - lsp) + T(0.5) * r - T(0.5);
+  };
+  const bool contiguous = mean_p.outerStride() == d && mean_q.outerStride() == d;
+  if (both_shared && kl_sum && !kl_out && constant_weight && contiguous && B > 0) {
+    set_terms(0);
+    *kl_sum = kl_shared_flat<T>(mean_p, mean_q, inv_vq, c.sum(), any_grad ? dkl(0) : T(0), g, r);
+    return;
   }
+  RowVectorX<T> per_sample;
+  if (kl_sum && !kl_out) {
+    per_sample.resize(B);
+    kl_out = &per_sample;
+  }
+  if (both_shared) {
+    set_terms(0);
+    kl_shared_columns<T>(mean_p, mean_q, inv_vq, c.sum(), kl_out, dkl, g, any_grad, r);
+    if (kl_sum) *kl_sum = kl_out->sum();
+    return;
+  }
+  // A per-sample log-std on either side: the terms change per column (Eigen array expressions).
+  Col diff(d), t(d), gm(d);
+  Col glp_shared = Col::Zero(g.log_std_p && p_shared ? d : 0), glq_shared = Col::Zero(g.log_std_q && q_shared ? d : 0);
+  for (Index j = 0; j < B; ++j) {
+    set_terms(j);
+    diff = mean_p.col(j).array() - mean_q.col(j).array();
+    t = diff.square() * inv_vq;  // (μp − μq)²/σq²
+    if (kl_out) (*kl_out)[j] = c.sum() + T(0.5) * t.sum();
+    if (!any_grad) continue;
+    const T w = dkl(j);
+    if (g.mean_p || g.mean_q) {
+      gm = w * diff * inv_vq;
+      if (g.mean_p) g.mean_p->col(j).array() += gm;
+      if (g.mean_q) g.mean_q->col(j).array() -= gm;
+    }
+    // ∂/∂logσp = r − 1, ∂/∂logσq = 1 − r − t (summed over the batch where the log-std is shared).
+    if (g.log_std_p) {
+      if (p_shared) glp_shared += w * (r - T(1));
+      else g.log_std_p->col(j).array() += w * (r - T(1));
+    }
+    if (g.log_std_q) {
+      if (q_shared) glq_shared += w * (T(1) - r - t);
+      else g.log_std_q->col(j).array() += w * (T(1) - r - t);
+    }
+  }
+  if (g.log_std_p && p_shared) g.log_std_p->col(0).array() += glp_shared;
+  if (g.log_std_q && q_shared) g.log_std_q->col(0).array() += glq_shared;
+  if (kl_sum) *kl_sum = kl_out->sum();
 }
 }  // namespace detail
 
@@ -137,10 +263,10 @@ T kl_diag_gaussian_mean(const Eigen::Ref<const MatrixX<T>>& mean_p, const Eigen:
   const Index B = mean_p.cols();
   require(B > 0, "empty batch", {{}, std::nullopt, "kl_diag_gaussian_mean"});
   const T w = static_cast<T>(options.weight / static_cast<double>(B));
-  RowVectorX<T> kl(B);
-  detail::kl_kernel<T>(mean_p, log_std_p, mean_q, log_std_q, &kl, [w](Index) { return w; }, grads,
-                       options.stop_gradient_p);
-  return kl.mean();
+  T kl_sum = 0;
+  detail::kl_kernel<T>(mean_p, log_std_p, mean_q, log_std_q, nullptr, [w](Index) { return w; }, grads,
+                       options.stop_gradient_p, &kl_sum, /*constant_weight=*/true);
+  return kl_sum / static_cast<T>(B);
 }
 
 }  // namespace maskadapt::nn

@@ -14,6 +14,11 @@
 ///    least this large (rollouts, one workspace per thread);
 ///  - `forward_train(x, cache)`: keeps the input, every pre-activation z_l and activation a_l for
 ///    `backward` (and for double back-propagation: see TrainCache).
+///
+/// Parallelism: give the workspace or cache a ThreadPool (`ws.pool = &pool`) and every layer's
+/// product runs as fixed chunks on it (nn/chunks.hpp), with bias, activation and derivative fused
+/// into each chunk. Results are bit-identical with or without a pool and for any pool size. With a
+/// pool, keep OpenBLAS at one thread (`limit_blas_threads(1)`).
 #include <algorithm>
 #include <cmath>
 #include <string>
@@ -24,7 +29,9 @@
 #include "maskadapt/core/error.hpp"
 #include "maskadapt/core/rng.hpp"
 #include "maskadapt/core/types.hpp"
+#include "maskadapt/core/thread_pool.hpp"
 #include "maskadapt/nn/activation.hpp"
+#include "maskadapt/nn/chunks.hpp"
 #include "maskadapt/nn/parameter_block.hpp"
 
 namespace maskadapt::nn {
@@ -71,7 +78,8 @@ struct MlpSpec {
 /// ≤ capacity.
 template <class T>
 struct InferenceWorkspace {
-  MatrixX<T> a, b;  ///< (max_hidden × capacity) each
+  MatrixX<T> a, b;            ///< (max_hidden × capacity) each
+  ThreadPool* pool = nullptr;  ///< optional: run each layer's chunks on it (not owned)
   /// Pre-size for `spec` and batches up to `batch` (optional; forward does it lazily).
   void reserve(const MlpSpec& spec, Index batch) {
     const Index h = spec.max_hidden();
@@ -92,6 +100,7 @@ struct TrainCache {
   std::vector<MatrixX<T>> pre;
   std::vector<MatrixX<T>> post;
   MatrixX<T> delta, back;  ///< backward scratch (max width × B), reused between calls
+  ThreadPool* pool = nullptr;  ///< optional: run forward_train/backward chunks on it (not owned)
 
   Index batch() const { return input.cols(); }
   /// Input of layer l: a_{l-1} (in_l × B).
@@ -193,19 +202,17 @@ class Mlp {
       const bool last = l == L - 1;
       if (last) {
         if (l == 0) {
-          y.noalias() = weight(l) * x;
+          layer_forward(ws.pool, l, x, y);
         } else {
-          y.noalias() = weight(l) * bufs[(l - 1) & 1]->topLeftCorner(in, batch);
+          layer_forward(ws.pool, l, bufs[(l - 1) & 1]->topLeftCorner(in, batch), y);
         }
-        bias_activate(y, bias(l), spec_.layer_activation(l));
       } else {
         auto z = bufs[l & 1]->topLeftCorner(out, batch);
         if (l == 0) {
-          z.noalias() = weight(l) * x;
+          layer_forward(ws.pool, l, x, z);
         } else {
-          z.noalias() = weight(l) * bufs[(l - 1) & 1]->topLeftCorner(in, batch);
+          layer_forward(ws.pool, l, bufs[(l - 1) & 1]->topLeftCorner(in, batch), z);
         }
-        bias_activate(z, bias(l), spec_.layer_activation(l));
       }
     }
   }
@@ -230,12 +237,32 @@ class Mlp {
     cache.post.resize(static_cast<std::size_t>(L));
     for (Index l = 0; l < L; ++l) {
       const auto i = static_cast<std::size_t>(l);
+      const Index out = spec_.layer_outputs(l);
       const Activation act = spec_.layer_activation(l);
-      cache.pre[i].resize(spec_.layer_outputs(l), batch);
-      cache.pre[i].noalias() = weight(l) * cache.layer_input(l);
-      cache.pre[i].colwise() += bias(l);
-      cache.post[i].resize(spec_.layer_outputs(l), batch);
-      apply_activation<T>(act, cache.pre[i], cache.post[i]);
+      const auto w = weight(l);
+      const auto b = bias(l);
+      const MatrixX<T>& a = cache.layer_input(l);
+      MatrixX<T>& pre = cache.pre[i];
+      MatrixX<T>& post = cache.post[i];
+      pre.resize(out, batch);
+      post.resize(out, batch);
+      const double macs = double(out) * double(spec_.layer_inputs(l)) * double(batch);
+      // pre = W a + b, post = f(pre), chunk by chunk along the longer side of (out × B).
+      if (batch >= out) {
+        for_each_chunk(cache.pool, batch, macs, [&](Index lo, Index hi) {
+          auto z = pre.middleCols(lo, hi - lo);
+          z.noalias() = w * a.middleCols(lo, hi - lo);
+          z.colwise() += b;
+          apply_activation<T>(act, z, post.middleCols(lo, hi - lo));
+        });
+      } else {
+        for_each_chunk(cache.pool, out, macs, [&](Index lo, Index hi) {
+          auto z = pre.middleRows(lo, hi - lo);
+          z.noalias() = w.middleRows(lo, hi - lo) * a;
+          z.colwise() += b.segment(lo, hi - lo);
+          apply_activation<T>(act, z, post.middleRows(lo, hi - lo));
+        });
+      }
     }
     return cache.post.back();
   }
@@ -268,22 +295,53 @@ class Mlp {
       d = dy;
       mul_derivative(d, cache.pre.back(), spec_.output_activation);
     }
+    ThreadPool* pool = cache.pool;
     for (Index l = L - 1; l >= 0; --l) {
       const Index out = spec_.layer_outputs(l), in = spec_.layer_inputs(l);
-      auto d = cur->topLeftCorner(out, batch);
+      const auto d = cur->topLeftCorner(out, batch);
+      const MatrixX<T>& a = cache.layer_input(l);
+      const auto w = weight(l);
       Eigen::Map<MatrixX<T>> gW(grad.data() + weight_offset(l), out, in);
       Eigen::Map<VectorX<T>> gb(grad.data() + bias_offset(l), out);
-      gW.noalias() += d * cache.layer_input(l).transpose();
-      gb += d.rowwise().sum();
+      const double macs = double(out) * double(in) * double(batch);  // of each product below
+      // gW += d aᵀ and gb += Σ_j d_j, chunked along the longer side of gW (out × in).
+      if (out >= in) {
+        for_each_chunk(pool, out, macs, [&](Index lo, Index hi) {
+          const auto dc = d.middleRows(lo, hi - lo);
+          gW.middleRows(lo, hi - lo).noalias() += dc * a.transpose();
+          add_column_sum(gb.segment(lo, hi - lo), dc);
+        });
+      } else {
+        for_each_chunk(pool, in, macs, [&](Index lo, Index hi) {
+          gW.middleCols(lo, hi - lo).noalias() += d * a.middleRows(lo, hi - lo).transpose();
+        });
+        add_column_sum(gb, d);
+      }
+      // ∂L/∂a_{l-1} = Wᵀ d (⊙ f'(z_{l-1}) below the first layer), chunked along (in × B).
+      MatrixX<T>* da_target = nullptr;
       if (l > 0) {
-        auto da = nxt->topLeftCorner(in, batch);
-        da.noalias() = weight(l).transpose() * d;
-        mul_derivative(da, cache.pre[static_cast<std::size_t>(l - 1)], spec_.activation);
-        std::swap(cur, nxt);
+        da_target = nxt;
       } else if (dx != nullptr) {
         dx->resize(in, batch);
-        dx->noalias() = weight(l).transpose() * d;
+        da_target = dx;
       }
+      if (da_target == nullptr) continue;
+      auto da = da_target->topLeftCorner(in, batch);
+      const MatrixX<T>* z_below = l > 0 ? &cache.pre[static_cast<std::size_t>(l - 1)] : nullptr;
+      if (batch >= in) {
+        for_each_chunk(pool, batch, macs, [&](Index lo, Index hi) {
+          auto dc = da.middleCols(lo, hi - lo);
+          dc.noalias() = w.transpose() * d.middleCols(lo, hi - lo);
+          if (z_below) mul_derivative(dc, z_below->middleCols(lo, hi - lo), spec_.activation);
+        });
+      } else {
+        for_each_chunk(pool, in, macs, [&](Index lo, Index hi) {
+          auto dc = da.middleRows(lo, hi - lo);
+          dc.noalias() = w.middleCols(lo, hi - lo).transpose() * d;
+          if (z_below) mul_derivative(dc, z_below->middleRows(lo, hi - lo), spec_.activation);
+        });
+      }
+      if (l > 0) std::swap(cur, nxt);
     }
   }
 
@@ -296,9 +354,38 @@ class Mlp {
                   {{}, std::nullopt, std::string("Mlp::") + where + ".x"});
   }
 
+  /// Z (out × B) = f(W_l X + b_l) for X (in × B), chunked along the longer side of Z.
+  template <class X, class Z>
+  void layer_forward(ThreadPool* pool, Index l, const X& x, Z&& z) const {
+    const auto w = weight(l);
+    const auto b = bias(l);
+    const Activation act = spec_.layer_activation(l);
+    const Index out = z.rows(), batch = z.cols();
+    const double macs = double(out) * double(spec_.layer_inputs(l)) * double(batch);
+    if (batch >= out) {
+      for_each_chunk(pool, batch, macs, [&](Index lo, Index hi) {
+        auto zc = z.middleCols(lo, hi - lo);
+        zc.noalias() = w * x.middleCols(lo, hi - lo);
+        bias_activate(zc, b, act);
+      });
+    } else {
+      for_each_chunk(pool, out, macs, [&](Index lo, Index hi) {
+        auto zc = z.middleRows(lo, hi - lo);
+        zc.noalias() = w.middleRows(lo, hi - lo) * x;
+        bias_activate(zc, b.segment(lo, hi - lo), act);
+      });
+    }
+  }
+
+  /// g (n) += Σ_j d.col(j), a vector add per column (contiguous, vectorised).
+  template <class G, class D>
+  static void add_column_sum(G&& g, const D& d) {
+    for (Index j = 0; j < d.cols(); ++j) g += d.col(j);
+  }
+
   /// z = f(z + b) column by column (one pass over memory).
-  template <class Z>
-  static void bias_activate(Z&& z, const Eigen::Map<const VectorX<T>>& b, Activation act) {
+  template <class Z, class B>
+  static void bias_activate(Z&& z, const B& b, Activation act) {
     const Index rows = z.rows();
     for (Index j = 0; j < z.cols(); ++j) {
       auto c = z.col(j);
@@ -312,8 +399,8 @@ class Mlp {
   }
 
   /// d ⊙= f'(z).
-  template <class D>
-  static void mul_derivative(D&& d, const MatrixX<T>& z, Activation act) {
+  template <class D, class Zm>
+  static void mul_derivative(D&& d, const Zm& z, Activation act) {
     if (act == Activation::Identity) return;
     const Index rows = d.rows();
     for (Index j = 0; j < d.cols(); ++j) {
