@@ -156,16 +156,18 @@ TEST(Mlp, BadShapesThrow) {
 
 // The chunked, pool-parallel products (nn/chunks.hpp) against the layer formulas written out
 // directly, in double, on shapes that exercise every split: columns (batch ≥ out), rows
-// (out > batch), gW by rows (out ≥ in) and by columns (out < in), and products too small to split.
+// (out > batch), gW by rows (out ≥ in) and by columns (out < in), products too small to split, and
+// the batch-1 GEMV.
 TEST(Mlp, ChunkedProductsMatchDirectLayerFormulas) {
   Rng rng(42);
   const std::pair<MlpSpec, Index> cases[] = {
       {MlpSpec{150, {300, 140}, 70, Activation::ELU, Activation::Tanh}, 260},  // every split kind
       {MlpSpec{400, {1200, 300}, 70, Activation::ELU, Activation::Tanh}, 24},  // small batch: rows
       {MlpSpec{150, {300, 140}, 70, Activation::ELU, Activation::Tanh}, 3},    // below kMinChunkedMacs
+      {MlpSpec{150, {300, 140}, 70, Activation::ELU, Activation::Tanh}, 1},    // inference: gemv_colmajor
   };
   for (const auto& [spec, batch] : cases) {
-    ASSERT_EQ(double(spec.hidden[0]) * double(spec.inputs) * double(batch) >= kMinChunkedMacs, batch != 3);
+    ASSERT_EQ(double(spec.hidden[0]) * double(spec.inputs) * double(batch) >= kMinChunkedMacs, batch > 3);
     Mlp<double> net(spec, rng);
     const Eigen::MatrixXd x = random_matrix(rng, spec.inputs, batch);
     const Eigen::MatrixXd dy = random_matrix(rng, spec.outputs, batch);
@@ -244,5 +246,19 @@ TEST(Mlp, PoolSizeDoesNotChangeAnyBit) {
     EXPECT_TRUE(y == y0) << threads << " threads";
     EXPECT_TRUE(g == g0) << threads << " threads";
     EXPECT_TRUE(dx == dx0) << threads << " threads";
+  }
+}
+
+TEST(Gemv, MatchesEigenOnEveryTailLength) {
+  Rng rng(77);
+  for (Index m : {Index(1), Index(7), Index(63), Index(130)}) {
+    for (Index n : {Index(1), Index(8), Index(13), Index(330)}) {
+      const Eigen::MatrixXd big = random_matrix(rng, m + 5, n);  // leading dimension m + 5
+      const Eigen::VectorXd x = random_matrix(rng, n, 1);
+      Eigen::VectorXd y(m);
+      gemv_colmajor<double>(m, n, big.data(), big.outerStride(), x.data(), y.data());
+      const Eigen::VectorXd ref = big.topRows(m) * x;
+      EXPECT_LT((y - ref).cwiseAbs().maxCoeff(), 1e-12 * (1.0 + ref.cwiseAbs().maxCoeff())) << m << "x" << n;
+    }
   }
 }

@@ -36,6 +36,27 @@ inline void chunk_range(Index n, Index i, Index& lo, Index& hi) {
   hi = boundary(i + 1);
 }
 
+/// The pool that Mlp passes on this thread use when their workspace or cache names none
+/// (nullptr: run on the calling thread). Set it for a region with ScopedPool.
+inline ThreadPool*& default_pool() {
+  thread_local ThreadPool* pool = nullptr;
+  return pool;
+}
+
+/// Makes `pool` this thread's default_pool() until the end of the scope (then restores the
+/// previous one). Trainers wrap an iteration in one, so every network pass inside — PPO, MI loss,
+/// discriminators, critics — runs its chunks on the trainer's pool without being told.
+class ScopedPool {
+ public:
+  explicit ScopedPool(ThreadPool* pool) : previous_(default_pool()) { default_pool() = pool; }
+  ~ScopedPool() { default_pool() = previous_; }
+  ScopedPool(const ScopedPool&) = delete;
+  ScopedPool& operator=(const ScopedPool&) = delete;
+
+ private:
+  ThreadPool* previous_;
+};
+
 /// Products smaller than this many multiply-adds are not split: one BLAS call (e.g. a batch-1
 /// GEMV, ~0.3 M MACs for the paper's first layer) beats chunks plus a pool wake-up (~10–50 µs).
 inline constexpr double kMinChunkedMacs = 4.0 * 1024 * 1024;

@@ -15,7 +15,8 @@
 ///  - `forward_train(x, cache)`: keeps the input, every pre-activation z_l and activation a_l for
 ///    `backward` (and for double back-propagation: see TrainCache).
 ///
-/// Parallelism: give the workspace or cache a ThreadPool (`ws.pool = &pool`) and every layer's
+/// Parallelism: give the workspace or cache a ThreadPool (`ws.pool = &pool`, or set one for a
+/// scope with nn::ScopedPool) and every layer's
 /// product runs as fixed chunks on it (nn/chunks.hpp), with bias, activation and derivative fused
 /// into each chunk. Results are bit-identical with or without a pool and for any pool size. With a
 /// pool, keep OpenBLAS at one thread (`limit_blas_threads(1)`).
@@ -32,6 +33,7 @@
 #include "maskadapt/core/thread_pool.hpp"
 #include "maskadapt/nn/activation.hpp"
 #include "maskadapt/nn/chunks.hpp"
+#include "maskadapt/nn/gemv.hpp"
 #include "maskadapt/nn/parameter_block.hpp"
 
 namespace maskadapt::nn {
@@ -197,21 +199,22 @@ class Mlp {
     const Index L = num_layers();
     if (L > 1) ws.reserve(spec_, batch);
     MatrixX<T>* bufs[2] = {&ws.a, &ws.b};
+    ThreadPool* pool = ws.pool ? ws.pool : default_pool();
     for (Index l = 0; l < L; ++l) {
       const Index out = spec_.layer_outputs(l), in = spec_.layer_inputs(l);
       const bool last = l == L - 1;
       if (last) {
         if (l == 0) {
-          layer_forward(ws.pool, l, x, y);
+          layer_forward(pool, l, x, y);
         } else {
-          layer_forward(ws.pool, l, bufs[(l - 1) & 1]->topLeftCorner(in, batch), y);
+          layer_forward(pool, l, bufs[(l - 1) & 1]->topLeftCorner(in, batch), y);
         }
       } else {
         auto z = bufs[l & 1]->topLeftCorner(out, batch);
         if (l == 0) {
-          layer_forward(ws.pool, l, x, z);
+          layer_forward(pool, l, x, z);
         } else {
-          layer_forward(ws.pool, l, bufs[(l - 1) & 1]->topLeftCorner(in, batch), z);
+          layer_forward(pool, l, bufs[(l - 1) & 1]->topLeftCorner(in, batch), z);
         }
       }
     }
@@ -233,6 +236,7 @@ class Mlp {
     check_input(x, "forward_train");
     const Index batch = x.cols(), L = num_layers();
     cache.input = x;
+    ThreadPool* pool = cache.pool ? cache.pool : default_pool();
     cache.pre.resize(static_cast<std::size_t>(L));
     cache.post.resize(static_cast<std::size_t>(L));
     for (Index l = 0; l < L; ++l) {
@@ -249,14 +253,14 @@ class Mlp {
       const double macs = double(out) * double(spec_.layer_inputs(l)) * double(batch);
       // pre = W a + b, post = f(pre), chunk by chunk along the longer side of (out × B).
       if (batch >= out) {
-        for_each_chunk(cache.pool, batch, macs, [&](Index lo, Index hi) {
+        for_each_chunk(pool, batch, macs, [&](Index lo, Index hi) {
           auto z = pre.middleCols(lo, hi - lo);
           z.noalias() = w * a.middleCols(lo, hi - lo);
           z.colwise() += b;
           apply_activation<T>(act, z, post.middleCols(lo, hi - lo));
         });
       } else {
-        for_each_chunk(cache.pool, out, macs, [&](Index lo, Index hi) {
+        for_each_chunk(pool, out, macs, [&](Index lo, Index hi) {
           auto z = pre.middleRows(lo, hi - lo);
           z.noalias() = w.middleRows(lo, hi - lo) * a;
           z.colwise() += b.segment(lo, hi - lo);
@@ -295,7 +299,7 @@ class Mlp {
       d = dy;
       mul_derivative(d, cache.pre.back(), spec_.output_activation);
     }
-    ThreadPool* pool = cache.pool;
+    ThreadPool* pool = cache.pool ? cache.pool : default_pool();
     for (Index l = L - 1; l >= 0; --l) {
       const Index out = spec_.layer_outputs(l), in = spec_.layer_inputs(l);
       const auto d = cur->topLeftCorner(out, batch);
@@ -362,6 +366,11 @@ class Mlp {
     const Activation act = spec_.layer_activation(l);
     const Index out = z.rows(), batch = z.cols();
     const double macs = double(out) * double(spec_.layer_inputs(l)) * double(batch);
+    if (batch == 1 && x.innerStride() == 1 && z.innerStride() == 1) {  // one sample: a streaming GEMV
+      gemv_colmajor<T>(out, spec_.layer_inputs(l), w.data(), w.outerStride(), x.data(), z.data());
+      bias_activate(z, b, act);
+      return;
+    }
     if (batch >= out) {
       for_each_chunk(pool, batch, macs, [&](Index lo, Index hi) {
         auto zc = z.middleCols(lo, hi - lo);

@@ -126,6 +126,8 @@ class ImitationTask {
   }
 
   Index num_envs() const { return static_cast<Index>(sim_.num_envs()); }
+  /// The pool per-env work runs on (nullptr: the calling thread).
+  ThreadPool* pool() const { return pool_; }
   Index obs_dim() const { return observation_dim(sim_.skeleton()); }
   Index policy_input_dim() const { return obs_dim() + kNumParts; }
   Index action_dim() const { return sim_.skeleton().num_dofs(); }

@@ -106,6 +106,9 @@ class BaseTrainer {
   /// Runs one iteration (collection, rewards, GAE, PPO + MI, discriminator) and returns its stats.
   IterationStats iterate() {
     IterationStats st;
+    // Network passes (inference batches, PPO, MI, discriminators) run their chunks on the env
+    // pool; results do not depend on it (nn/chunks.hpp).
+    nn::ScopedPool parallel_networks(task_.pool());
     Stopwatch total;
     task_.stats().clear();
     collect(st);

@@ -362,6 +362,9 @@ class ResidualTrainer {
 
   IterationStats iterate() {
     IterationStats st;
+    // Network passes (inference batches, PPO, MI, discriminators) run their chunks on the env
+    // pool; results do not depend on it (nn/chunks.hpp).
+    nn::ScopedPool parallel_networks(task_.pool());
     Stopwatch total;
     task_.stats().clear();
     if (setup_.tracking && iteration_ > 0 && iteration_ % setup_.tracking->sample_every == 0) {
