@@ -127,7 +127,7 @@ void BM_MlpForward(benchmark::State& state) {
                                                benchmark::Counter::kIsRate);
 }
 BENCHMARK(BM_MlpForward)
-    ->ArgsProduct({{4096, 256}, {0}, {0, 1}})->ArgsProduct({{1}, {0, 1}, {0}})
+    ->ArgsProduct({{4096, 256}, {0}, {0, 1}})->ArgsProduct({{1}, {0, 1}, {0, 1}})
     ->ArgNames({"batch", "small", "pool"})->Unit(benchmark::kMicrosecond)->UseRealTime();
 
 void BM_MlpForwardBackward(benchmark::State& state) {

@@ -262,3 +262,24 @@ TEST(Gemv, MatchesEigenOnEveryTailLength) {
     }
   }
 }
+
+// Batch 1 with a pool: the GEMV's rows are split over the threads; every output is the same sum.
+TEST(Mlp, Batch1OnAPoolIsBitIdentical) {
+  Rng init(12);
+  const MlpSpec spec{330, {1024, 300}, 63};
+  ASSERT_GE(1024.0 * 330.0 * sizeof(float), kMinSplitGemvBytes);  // the first layer really is split
+  Mlp<float> net(spec, init);
+  Rng rng(13);
+  const Eigen::MatrixXf x = random_matrix(rng, spec.inputs, 1).cast<float>();
+  InferenceWorkspace<float> ws;
+  Eigen::MatrixXf y0(spec.outputs, 1), y(spec.outputs, 1);
+  net.forward(x, y0, ws);
+  for (std::size_t threads : {2u, 3u}) {
+    ThreadPool pool(threads);
+    ws.pool = &pool;
+    net.forward(x, y, ws);
+    EXPECT_TRUE(y == y0) << threads << " threads";
+  }
+  TrainCache<float> cache;
+  EXPECT_LT((y0 - net.forward_train(x, cache)).cwiseAbs().maxCoeff(), 1e-5f);  // GEMV vs GEMM path
+}

@@ -61,6 +61,10 @@ class ScopedPool {
 /// GEMV, ~0.3 M MACs for the paper's first layer) beats chunks plus a pool wake-up (~10–50 µs).
 inline constexpr double kMinChunkedMacs = 4.0 * 1024 * 1024;
 
+/// A batch-1 product (GEMV) is split over the pool's threads by rows when its weights are at
+/// least this large: streaming 1 MB takes ~10 µs per core, the pool's hand-off ~3 µs.
+inline constexpr double kMinSplitGemvBytes = 1024.0 * 1024;
+
 /// Calls body(lo, hi) for every chunk of a side of length n: on `pool` when one is given, else
 /// in order on the calling thread. Nested inside another parallel_for it runs serially. `macs`
 /// is the product's multiply-add count: below kMinChunkedMacs the side is one chunk [0, n).

@@ -6,7 +6,8 @@
 /// y (which stays in L1) with all 8 in one pass, so each weight is one streaming load and one
 /// FMA, and the compiler vectorises along the rows. Measured on the 2-core Zen 4 machine for the
 /// paper's 330 → [1024, 1024, 512] → 63 net (7.8 MB): 85 µs against a 77 µs streaming floor
-/// (1.11×), where OpenBLAS's sgemv took 96 µs (docs/benchmarks.md).
+/// (1.11×), where OpenBLAS's sgemv took 96 µs (docs/benchmarks.md). Each y[i] is the same
+/// left-to-right sum whatever rows a call covers, so Mlp may split the rows over a pool.
 #include "maskadapt/core/types.hpp"
 
 namespace maskadapt::nn {

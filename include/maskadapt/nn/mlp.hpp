@@ -367,7 +367,16 @@ class Mlp {
     const Index out = z.rows(), batch = z.cols();
     const double macs = double(out) * double(spec_.layer_inputs(l)) * double(batch);
     if (batch == 1 && x.innerStride() == 1 && z.innerStride() == 1) {  // one sample: a streaming GEMV
-      gemv_colmajor<T>(out, spec_.layer_inputs(l), w.data(), w.outerStride(), x.data(), z.data());
+      const Index in = spec_.layer_inputs(l);
+      auto rows = [&](Index lo, Index hi) {
+        gemv_colmajor<T>(hi - lo, in, w.data() + lo, w.outerStride(), x.data(), z.data() + lo);
+      };
+      // Memory-bound: with a pool, each thread streams its rows of W (same sums, any split).
+      if (pool != nullptr && double(out) * double(in) * sizeof(T) >= kMinSplitGemvBytes) {
+        for_each_chunk(pool, out, kMinChunkedMacs, rows);
+      } else {
+        rows(0, out);
+      }
       bias_activate(z, b, act);
       return;
     }

@@ -23,8 +23,10 @@
 #include <maskadapt/core/types.hpp>
 #include <maskadapt/mask/parts.hpp>
 
+#include <algorithm>
 #include <cstdint>
 #include <numeric>
+#include <span>
 #include <utility>
 #include <vector>
 
@@ -92,6 +94,23 @@ struct RolloutBuffer {
   Index column(Index t, Index env) const { return t * spec.num_envs + env; }
   /// First column of time step t (the step occupies `num_envs` consecutive columns).
   Index step_begin(Index t) const { return t * spec.num_envs; }
+
+  /// Stores what the behaviour policy saw and did at step t, one column per env: the full
+  /// observation (obs_dim × N), the actor input (policy_input_dim × N), the masks (N), the
+  /// actions (action_dim × N), their log-probabilities (1 × N) and the values (num_objectives × N).
+  template <class Obs, class Input, class Act, class LogP, class Val>
+  void record_policy_step(Index t, const Eigen::MatrixBase<Obs>& obs_t, const Eigen::MatrixBase<Input>& input_t,
+                          std::span<const PartMask> masks_t, const Eigen::MatrixBase<Act>& actions_t,
+                          const Eigen::MatrixBase<LogP>& log_probs_t, const Eigen::MatrixBase<Val>& values_t) {
+    const Index c0 = step_begin(t), N = spec.num_envs;
+    require(static_cast<Index>(masks_t.size()) == N, "one mask per env expected", {{}, {}, "RolloutBuffer.masks"});
+    obs.middleCols(c0, N) = obs_t;
+    policy_input.middleCols(c0, N) = input_t;
+    std::copy(masks_t.begin(), masks_t.end(), masks.begin() + c0);
+    actions.middleCols(c0, N) = actions_t;
+    log_probs.segment(c0, N) = log_probs_t;
+    values.middleCols(c0, N) = values_t;
+  }
 };
 
 /// Splits a random permutation of [0, num_samples) into `num_minibatches` minibatches of

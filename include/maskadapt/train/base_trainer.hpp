@@ -123,16 +123,7 @@ class BaseTrainer {
     st.time_update += upd.seconds();
     ++iteration_;
     samples_ += buf_.size();
-    const auto& es = task_.stats();
-    st.iteration = iteration_;
-    st.samples = samples_;
-    st.time_total = total.seconds();
-    st.samples_per_s = static_cast<double>(buf_.size()) / std::max(1e-9, st.time_total);
-    st.episode_length = es.mean_length();
-    st.episodes = static_cast<double>(es.episodes);
-    st.fall_rate = es.fall_rate();
-    st.mask_fraction = es.steps > 0 ? static_cast<double>(es.masked_steps) / static_cast<double>(es.steps) : 0.0;
-    st.sim_resets = es.sim_resets;
+    finish_iteration_stats(st, iteration_, samples_, buf_.size(), total.seconds(), task_.stats());
     return st;
   }
 
@@ -195,14 +186,9 @@ class BaseTrainer {
     for (Index t = 0; t < H; ++t) {
       Stopwatch inf;
       const Index c0 = buf_.step_begin(t);
-      buf_.obs.middleCols(c0, N) = task_.observations();
-      buf_.policy_input.middleCols(c0, N) = task_.policy_inputs();
-      for (Index e = 0; e < N; ++e) buf_.masks[static_cast<std::size_t>(c0 + e)] = task_.masks()[static_cast<std::size_t>(e)];
       actor.act(task_.policy_inputs(), rng_, actions_, logp_, mu_, actor_ws_, scratch_);
       critic.value(task_.observations(), values_, critic_ws_, scratch_);
-      buf_.actions.middleCols(c0, N) = actions_;
-      buf_.log_probs.segment(c0, N) = logp_;
-      buf_.values.middleCols(c0, N) = values_;
+      buf_.record_policy_step(t, task_.observations(), task_.policy_inputs(), task_.masks(), actions_, logp_, values_);
       st.time_inference += inf.seconds();
 
       Stopwatch sim;

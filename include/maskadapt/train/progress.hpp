@@ -6,6 +6,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -61,6 +62,23 @@ struct IterationStats {
   /// Task-specific columns (e.g. stage 2's "tracking_reward"), written to the log as extra keys.
   std::map<std::string, double> extra;
 };
+
+/// Fills the counters, throughput and episode columns of `st` at the end of an iteration that
+/// collected `batch` samples in `seconds`; `es` is the task's tasks::EpisodeStats of the iteration.
+/// mask_fraction is the fraction of steps with a non-empty mask.
+template <class EpisodeStatsT>
+void finish_iteration_stats(IterationStats& st, long long iteration, long long samples, long long batch,
+                            double seconds, const EpisodeStatsT& es) {
+  st.iteration = iteration;
+  st.samples = samples;
+  st.time_total = seconds;
+  st.samples_per_s = static_cast<double>(batch) / std::max(1e-9, seconds);
+  st.episode_length = es.mean_length();
+  st.episodes = static_cast<double>(es.episodes);
+  st.fall_rate = es.fall_rate();
+  st.mask_fraction = es.steps > 0 ? static_cast<double>(es.masked_steps) / static_cast<double>(es.steps) : 0.0;
+  st.sim_resets = es.sim_resets;
+}
 
 inline nlohmann::json to_json(const IterationStats& s) {
   auto num = [](double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr); };

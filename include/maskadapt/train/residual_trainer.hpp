@@ -382,16 +382,8 @@ class ResidualTrainer {
     st.time_update += upd.seconds();
     ++iteration_;
     samples_ += buf_.size();
-    const auto& es = task_.stats();
-    st.iteration = iteration_;
-    st.samples = samples_;
-    st.time_total = total.seconds();
-    st.samples_per_s = static_cast<double>(buf_.size()) / std::max(1e-9, st.time_total);
-    st.episode_length = es.mean_length();
-    st.episodes = static_cast<double>(es.episodes);
-    st.fall_rate = es.fall_rate();
-    st.mask_fraction = 1.0;
-    st.sim_resets = es.sim_resets;
+    finish_iteration_stats(st, iteration_, samples_, buf_.size(), total.seconds(), task_.stats());
+    st.mask_fraction = 1.0;  // the residual task's own masks, not the imitation task's (which has none)
     return st;
   }
 
@@ -601,14 +593,9 @@ class ResidualTrainer {
       critic_input(task_.observations(), masks, goals, cin);
       policy_.residual().normalizer.update(x);
       critic_.normalizer.update(cin);
-      buf_.obs.middleCols(c0, N) = cin;
-      buf_.policy_input.middleCols(c0, N) = x;
-      for (Index e = 0; e < N; ++e) buf_.masks[static_cast<std::size_t>(c0 + e)] = masks[static_cast<std::size_t>(e)];
       policy_.act(x, masks, rng_, actions_, logp_, mu_, ws_);
       values(cin, v);
-      buf_.actions.middleCols(c0, N) = actions_;
-      buf_.log_probs.segment(c0, N) = logp_;
-      buf_.values.middleCols(c0, N) = v;
+      buf_.record_policy_step(t, cin, x, masks, actions_, logp_, v);
       st.time_inference += inf.seconds();
 
       Stopwatch sim;
