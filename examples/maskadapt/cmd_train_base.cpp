@@ -80,7 +80,7 @@ const bool registered = maskadapt::cli::register_command([](CLI::App& app) {
   c->add_option("--preset", args->preset, "cpu | paper");
   c->add_option("--motions", args->motions, "motion sources: locomotion | synthetic | DIR | FILE ...");
   c->add_option("--envs", args->envs, "number of parallel envs");
-  c->add_option("--threads", args->threads, "simulation threads (0 = all cores)");
+  c->add_option("--threads", args->threads, "threads for simulation and network passes (0 = all cores)");
   c->add_option("--iterations", args->iterations, "iteration budget (total, including resumed ones)");
   c->add_option("--minutes", args->minutes, "wall-clock budget in minutes");
   c->add_option("--seed", args->seed, "master seed");

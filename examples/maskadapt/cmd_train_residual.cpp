@@ -421,7 +421,7 @@ const bool registered = maskadapt::cli::register_command([](CLI::App& app) {
   c->add_option("--hidden", a->hidden, "residual hidden sizes");
   c->add_option("--preset", a->preset, "cpu | paper");
   c->add_option("--envs", a->envs, "parallel envs");
-  c->add_option("--threads", a->threads, "simulation threads (0 = all cores)");
+  c->add_option("--threads", a->threads, "threads for simulation and network passes (0 = all cores)");
   c->add_option("--iterations", a->iterations, "iteration budget");
   c->add_option("--minutes", a->minutes, "wall-clock budget");
   c->add_option("--seed", a->seed, "master seed");
