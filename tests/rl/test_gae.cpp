@@ -114,6 +114,30 @@ TEST(Gae, RejectsBadInput) {
   EXPECT_NO_THROW(compute_gae<double>({}, 1, r, v, none, none, fin, boot, adv, ret));
 }
 
+// record_policy_step writes step t into columns t·N … t·N + N − 1 of every per-sample array and
+// touches nothing else.
+TEST(RolloutBuffer, RecordPolicyStepFillsExactlyItsColumns) {
+  const Index H = 3, N = 2;
+  RolloutBuffer<float> buf({H, N, 4, 5, 3, 2, 0});
+  const MatrixXf obs = MatrixXf::Constant(4, N, 1.f), input = MatrixXf::Constant(5, N, 2.f);
+  const MatrixXf act = MatrixXf::Constant(3, N, 3.f), val = MatrixXf::Constant(2, N, 4.f);
+  const RowVectorX<float> logp = RowVectorX<float>::Constant(N, 5.f);
+  const std::vector<PartMask> masks{PartMask::of(BodyPart::LeftArm), PartMask::all()};
+  buf.record_policy_step(1, obs, input, masks, act, logp, val);
+  for (Index c = 0; c < buf.size(); ++c) {
+    const bool mine = c >= N && c < 2 * N;
+    EXPECT_EQ(buf.obs(0, c), mine ? 1.f : 0.f) << c;
+    EXPECT_EQ(buf.policy_input(4, c), mine ? 2.f : 0.f) << c;
+    EXPECT_EQ(buf.actions(2, c), mine ? 3.f : 0.f) << c;
+    EXPECT_EQ(buf.values(1, c), mine ? 4.f : 0.f) << c;
+    EXPECT_EQ(buf.log_probs(c), mine ? 5.f : 0.f) << c;
+    EXPECT_EQ(buf.masks[static_cast<std::size_t>(c)], mine ? masks[static_cast<std::size_t>(c - N)] : PartMask::none())
+        << c;
+  }
+  const std::vector<PartMask> one_mask{PartMask::all()};
+  EXPECT_THROW(buf.record_policy_step(0, obs, input, one_mask, act, logp, val), Error);
+}
+
 TEST(RolloutBuffer, LayoutAndMinibatches) {
   RolloutBuffer<float> buf({4, 3, 5, 7, 2, 1, 9});
   EXPECT_EQ(buf.size(), 12);

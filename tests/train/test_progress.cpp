@@ -1,10 +1,13 @@
 #include <maskadapt/train/progress.hpp>
+#include <maskadapt/tasks/imitation.hpp>
 
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 
+using namespace maskadapt;
 using namespace maskadapt::train;
 
 TEST(TrainProgress, DurationFormatting) {
@@ -69,4 +72,29 @@ TEST(TrainProgress, JsonlLogWritesOneParsableObjectPerLine) {
   }
   EXPECT_EQ(n, 4);
   std::filesystem::remove(path);
+}
+
+TEST(TrainProgress, FinishIterationStatsDerivesTheEpisodeColumns) {
+  tasks::EpisodeStats es;
+  es.episodes = 4;
+  es.falls = 1;
+  es.total_seconds = 10.0;
+  es.steps = 200;
+  es.masked_steps = 150;
+  es.sim_resets = 2;
+  IterationStats st;
+  finish_iteration_stats(st, 7, 7168, 1024, 0.5, es);
+  EXPECT_EQ(st.iteration, 7);
+  EXPECT_EQ(st.samples, 7168);
+  EXPECT_DOUBLE_EQ(st.samples_per_s, 2048.0);
+  EXPECT_DOUBLE_EQ(st.time_total, 0.5);
+  EXPECT_DOUBLE_EQ(st.episode_length, 2.5);
+  EXPECT_DOUBLE_EQ(st.episodes, 4.0);
+  EXPECT_DOUBLE_EQ(st.fall_rate, 0.25);
+  EXPECT_DOUBLE_EQ(st.mask_fraction, 0.75);
+  EXPECT_EQ(st.sim_resets, 2);
+  finish_iteration_stats(st, 8, 8192, 1024, 0.5, tasks::EpisodeStats{});  // nothing ended
+  EXPECT_TRUE(std::isnan(st.episode_length));
+  EXPECT_TRUE(std::isnan(st.fall_rate));
+  EXPECT_DOUBLE_EQ(st.mask_fraction, 0.0);
 }
