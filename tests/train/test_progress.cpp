@@ -75,13 +75,8 @@ TEST(TrainProgress, JsonlLogWritesOneParsableObjectPerLine) {
 }
 
 TEST(TrainProgress, FinishIterationStatsDerivesTheEpisodeColumns) {
-  tasks::EpisodeStats es;
-  es.episodes = 4;
-  es.falls = 1;
-  es.total_seconds = 10.0;
-  es.steps = 200;
-  es.masked_steps = 150;
-  es.sim_resets = 2;
+  const tasks::EpisodeStats es{
+      .episodes = 4, .falls = 1, .total_seconds = 10.0, .steps = 200, .masked_steps = 150, .sim_resets = 2};
   IterationStats st;
   finish_iteration_stats(st, 7, 7168, 1024, 0.5, es);
   EXPECT_EQ(st.iteration, 7);
