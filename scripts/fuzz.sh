@@ -1,6 +1,8 @@
 #!/usr/bin/env bash
 # Builds the libFuzzer targets of the BVH and npz readers with clang (address + undefined
-# sanitizers), replays every kept input (tests/fuzz/<target>/corpus and regressions), then fuzzes
+# sanitizers), writes their seed inputs from the project's own code (tests/fuzz/make_seeds.cpp →
+# build-fuzz/seeds/<target>), replays the seeds and every kept crash input
+# (tests/fuzz/<target>/regressions), then fuzzes
 # each target for a share of a bounded total time. New crash inputs are copied into
 # tests/fuzz/<target>/regressions/ (commit them after fixing the crash; the gtest
 # FuzzRegressions.* replays them too). Exit status 1 when any input crashes.
@@ -44,12 +46,19 @@ for t in "${targets[@]}"; do
       -Iinclude $eigen_inc "$src" -lz -o "$bin"
   fi
 done
+seeds_bin="$out/make_seeds"
+if [ ! -x "$seeds_bin" ] || [ -n "$(find tests/fuzz include/maskadapt/motion include/maskadapt/humanoid -newer "$seeds_bin" -print -quit)" ]; then
+  echo "== building $seeds_bin"
+  "$cxx" -std=c++20 -O1 -Iinclude $eigen_inc tests/fuzz/make_seeds.cpp -lz -o "$seeds_bin"
+fi
+rm -rf "$out/seeds"
+"$seeds_bin" "$out/seeds"
 
 status=0
 for t in "${targets[@]}"; do
   bin="$out/fuzz_${t}"
   kept=()
-  for d in "tests/fuzz/$t/corpus" "tests/fuzz/$t/regressions"; do
+  for d in "$out/seeds/$t" "tests/fuzz/$t/regressions"; do
     [ -d "$d" ] && while IFS= read -r -d '' f; do kept+=("$f"); done < <(find "$d" -type f -print0)
   done
   echo "== replaying ${#kept[@]} kept inputs for $t"
@@ -70,7 +79,7 @@ for t in "${targets[@]}"; do
   mkdir -p "$work" "$art"
   echo "== fuzzing $t for ${per}s"
   if ! "$bin" -max_total_time="$per" -max_len=65536 -rss_limit_mb=2048 -timeout=10 \
-      -artifact_prefix="$art" "$work" "tests/fuzz/$t/corpus" >"$out/fuzz_${t}.log" 2>&1; then
+      -artifact_prefix="$art" "$work" "$out/seeds/$t" >"$out/fuzz_${t}.log" 2>&1; then
     status=1
     echo "fuzz.sh: fuzz_$t found a crash:" >&2
     tail -40 "$out/fuzz_${t}.log" >&2

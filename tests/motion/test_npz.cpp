@@ -4,55 +4,20 @@
 #include <maskadapt/motion/npz.hpp>
 
 #include <gtest/gtest.h>
-#include <zlib.h>
 
 #include <filesystem>
+
+#include "../fuzz/seeds.hpp"
 
 using namespace maskadapt;
 
 namespace {
 
-void put16(std::string& s, std::uint32_t v) {
-  s += static_cast<char>(v & 0xff);
-  s += static_cast<char>((v >> 8) & 0xff);
-}
-void put32(std::string& s, std::uint32_t v) {
-  put16(s, v & 0xffff);
-  put16(s, v >> 16);
-}
+using test::put16;
 
 /// A zip with one deflated member (raw deflate via zlib), as Python's zipfile writes it.
 std::string deflated_zip(const std::string& name, const std::string& data) {
-  z_stream zs{};
-  deflateInit2(&zs, 6, Z_DEFLATED, -MAX_WBITS, 8, Z_DEFAULT_STRATEGY);
-  std::string out(deflateBound(&zs, data.size()), '\0');
-  zs.next_in = reinterpret_cast<Bytef*>(const_cast<char*>(data.data()));
-  zs.avail_in = static_cast<uInt>(data.size());
-  zs.next_out = reinterpret_cast<Bytef*>(out.data());
-  zs.avail_out = static_cast<uInt>(out.size());
-  EXPECT_EQ(deflate(&zs, Z_FINISH), Z_STREAM_END);
-  out.resize(zs.total_out);
-  deflateEnd(&zs);
-  const auto crc = static_cast<std::uint32_t>(crc32(0, reinterpret_cast<const Bytef*>(data.data()), static_cast<uInt>(data.size())));
-  std::string z;
-  put32(z, 0x04034b50);
-  put16(z, 20); put16(z, 0); put16(z, 8); put16(z, 0); put16(z, 0);
-  put32(z, crc); put32(z, static_cast<std::uint32_t>(out.size())); put32(z, static_cast<std::uint32_t>(data.size()));
-  put16(z, static_cast<std::uint32_t>(name.size())); put16(z, 0);
-  z += name;
-  z += out;
-  const auto cd_off = static_cast<std::uint32_t>(z.size());
-  std::string cd;
-  put32(cd, 0x02014b50);
-  put16(cd, 20); put16(cd, 20); put16(cd, 0); put16(cd, 8); put16(cd, 0); put16(cd, 0);
-  put32(cd, crc); put32(cd, static_cast<std::uint32_t>(out.size())); put32(cd, static_cast<std::uint32_t>(data.size()));
-  put16(cd, static_cast<std::uint32_t>(name.size())); put16(cd, 0); put16(cd, 0); put16(cd, 0); put16(cd, 0);
-  put32(cd, 0); put32(cd, 0);
-  cd += name;
-  z += cd;
-  put32(z, 0x06054b50); put16(z, 0); put16(z, 0); put16(z, 1); put16(z, 1);
-  put32(z, static_cast<std::uint32_t>(cd.size())); put32(z, cd_off); put16(z, 0);
-  return z;
+  return test::deflated_zip({{name, data}});
 }
 
 /// A hand-built .npy blob with an arbitrary header (dtype / order tests).
@@ -114,6 +79,32 @@ TEST(Npz, ReadsDeflatedMembersAndOtherDtypes) {
   a = npz::parse(deflated_zip("o.npy", npy("{'descr': '|O', 'fortran_order': False, 'shape': (), }", "x")));
   EXPECT_FALSE(a.at("o").supported);
   EXPECT_THROW(npz::as_scalar(a.at("o"), "o"), Error);
+}
+
+// Deflated members behind zip64 size fields and a zip64 end-of-central-directory record (what
+// NumPy writes for large arrays) read back to exactly what was written, AMASS layout included.
+TEST(Npz, Zip64DeflatedArchiveReadsBackExactly) {
+  const npz::Archive amass = test::amass_seed_archive();
+  std::vector<std::pair<std::string, std::string>> members;
+  for (const auto& [name, array] : amass) members.emplace_back(name + ".npy", npz::detail::npy_bytes(array));
+  const std::string bytes = test::deflated_zip(members, /*zip64=*/true);
+  const npz::Archive back = npz::parse(bytes, "zip64.npz");
+  ASSERT_EQ(back.size(), amass.size());
+  for (const auto& [name, array] : amass) {
+    ASSERT_TRUE(back.count(name)) << name;
+    EXPECT_EQ(back.at(name).shape, array.shape) << name;
+    EXPECT_EQ(back.at(name).values, array.values) << name;
+    EXPECT_EQ(back.at(name).text, array.text) << name;
+  }
+  const npz::AmassMotion m = npz::amass_from_archive(back, "zip64.npz");
+  EXPECT_EQ(m.gender, "neutral");
+  EXPECT_EQ(m.betas.size(), 4);
+  EXPECT_EQ(npz::as_matrix(back.at("poses"), "poses"), npz::as_matrix(amass.at("poses"), "poses"));
+  // The zip64 record is really used: without its locator the archive is rejected by name.
+  const std::size_t eocd = bytes.size() - 22;
+  std::string broken = bytes;
+  broken[eocd - 20] = 'X';
+  EXPECT_THROW(npz::parse(broken, "zip64.npz"), Error);
 }
 
 TEST(Npz, CorruptArchivesThrowNamingTheMember) {
