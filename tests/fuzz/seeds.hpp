@@ -69,13 +69,18 @@ inline npz::Archive amass_seed_archive() {
           {"mocap_framerate", npz::scalar(60.0)}};
 }
 
+/// The archive's members as (name.npy, .npy bytes), ready for deflated_zip.
+inline std::vector<std::pair<std::string, std::string>> npy_members(const npz::Archive& ar) {
+  std::vector<std::pair<std::string, std::string>> members;
+  for (const auto& [name, array] : ar) members.emplace_back(name + ".npy", npz::detail::npy_bytes(array));
+  return members;
+}
+
 inline Seeds npz_seeds() {
   const npz::Archive amass = amass_seed_archive();
-  std::vector<std::pair<std::string, std::string>> members;
-  for (const auto& [name, array] : amass) members.emplace_back(name + ".npy", npz::detail::npy_bytes(array));
   return {{"clip.npz", npz::serialise(clip_to_archive(seed_clip()))},
           {"amass_stored.npz", npz::serialise(amass)},
-          {"amass_deflated_zip64.npz", deflated_zip(members, /*zip64=*/true)}};
+          {"amass_deflated_zip64.npz", deflated_zip(npy_members(amass), /*zip64=*/true)}};
 }
 
 }  // namespace maskadapt::test

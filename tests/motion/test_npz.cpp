@@ -85,9 +85,7 @@ TEST(Npz, ReadsDeflatedMembersAndOtherDtypes) {
 // NumPy writes for large arrays) read back to exactly what was written, AMASS layout included.
 TEST(Npz, Zip64DeflatedArchiveReadsBackExactly) {
   const npz::Archive amass = test::amass_seed_archive();
-  std::vector<std::pair<std::string, std::string>> members;
-  for (const auto& [name, array] : amass) members.emplace_back(name + ".npy", npz::detail::npy_bytes(array));
-  const std::string bytes = test::deflated_zip(members, /*zip64=*/true);
+  const std::string bytes = test::deflated_zip(test::npy_members(amass), /*zip64=*/true);
   const npz::Archive back = npz::parse(bytes, "zip64.npz");
   ASSERT_EQ(back.size(), amass.size());
   for (const auto& [name, array] : amass) {
