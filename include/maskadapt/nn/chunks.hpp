@@ -2,9 +2,10 @@
 /// \file chunks.hpp
 /// A fixed partition of a matrix side into chunks, run on an optional ThreadPool.
 ///
-/// The big products of an Mlp (at least kMinChunkedMacs multiply-adds) (W·X, D·Aᵀ, Wᵀ·D) are split along the longer side of their result
-/// into chunks, and each chunk is one single-threaded GEMM plus its element-wise epilogue (bias,
-/// activation, derivative) while the chunk is still in cache. The partition depends on the side's
+/// The big products of an Mlp (W·X, D·Aᵀ, Wᵀ·D of at least kMinChunkedMacs multiply-adds) are
+/// split along the longer side of their result into chunks, and each chunk is one
+/// single-threaded GEMM plus its element-wise epilogue (bias, activation, derivative) while the
+/// chunk is still in cache. The partition depends on the side's
 /// length ONLY — never on the number of threads, nor on whether a pool is given — so every result
 /// is bit-identical for any pool size, including none.
 ///
@@ -61,16 +62,21 @@ class ScopedPool {
 /// GEMV, ~0.3 M MACs for the paper's first layer) beats chunks plus a pool wake-up (~10–50 µs).
 inline constexpr double kMinChunkedMacs = 4.0 * 1024 * 1024;
 
+/// Whether a (rows × inner)·(inner × cols) product is worth splitting (≥ kMinChunkedMacs).
+inline bool worth_chunking(Index rows, Index inner, Index cols) {
+  return double(rows) * double(inner) * double(cols) >= kMinChunkedMacs;
+}
+
 /// A batch-1 product (GEMV) is split over the pool's threads by rows when its weights are at
 /// least this large: streaming 1 MB takes ~10 µs per core, the pool's hand-off ~3 µs.
 inline constexpr double kMinSplitGemvBytes = 1024.0 * 1024;
 
-/// Calls body(lo, hi) for every chunk of a side of length n: on `pool` when one is given, else
-/// in order on the calling thread. Nested inside another parallel_for it runs serially. `macs`
-/// is the product's multiply-add count: below kMinChunkedMacs the side is one chunk [0, n).
+/// Calls body(lo, hi) for every chunk of a side of length n — or once for [0, n) when `split` is
+/// false: on `pool` when one is given, else in order on the calling thread. Nested inside another
+/// parallel_for it runs serially.
 template <class Body>
-void for_each_chunk(ThreadPool* pool, Index n, double macs, Body&& body) {
-  if (macs < kMinChunkedMacs) {
+void for_each_chunk(ThreadPool* pool, Index n, bool split, Body&& body) {
+  if (!split) {
     if (n > 0) body(Index(0), n);
     return;
   }
@@ -85,6 +91,18 @@ void for_each_chunk(ThreadPool* pool, Index n, double macs, Body&& body) {
     return;
   }
   pool->parallel_for(0, static_cast<std::size_t>(c), [&](std::size_t i) { run(static_cast<Index>(i)); });
+}
+
+/// Calls body(r0, nr, c0, nc) for the blocks of a (rows × cols) result cut by for_each_chunk along
+/// its longer side — the columns when cols > rows, or when they are equal and !rows_on_tie — with
+/// the other side whole. One body serves both directions.
+template <class Body>
+void for_each_block(ThreadPool* pool, Index rows, Index cols, bool split, Body&& body, bool rows_on_tie = false) {
+  if (cols > rows || (cols == rows && !rows_on_tie)) {
+    for_each_chunk(pool, cols, split, [&](Index lo, Index hi) { body(Index(0), rows, lo, hi - lo); });
+  } else {
+    for_each_chunk(pool, rows, split, [&](Index lo, Index hi) { body(lo, hi - lo, Index(0), cols); });
+  }
 }
 
 }  // namespace maskadapt::nn

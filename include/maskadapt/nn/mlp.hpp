@@ -16,9 +16,8 @@
 ///    `backward` (and for double back-propagation: see TrainCache).
 ///
 /// Parallelism: give the workspace or cache a ThreadPool (`ws.pool = &pool`, or set one for a
-/// scope with nn::ScopedPool) and every layer's
-/// product runs as fixed chunks on it (nn/chunks.hpp), with bias, activation and derivative fused
-/// into each chunk. Results are bit-identical with or without a pool and for any pool size. With a
+/// scope with nn::ScopedPool) and every layer's product runs as fixed chunks on it
+/// (nn/chunks.hpp), with bias, activation and derivative fused into each chunk. Results are bit-identical with or without a pool and for any pool size. With a
 /// pool, keep OpenBLAS at one thread (`limit_blas_threads(1)`).
 #include <algorithm>
 #include <cmath>
@@ -241,7 +240,7 @@ class Mlp {
     cache.post.resize(static_cast<std::size_t>(L));
     for (Index l = 0; l < L; ++l) {
       const auto i = static_cast<std::size_t>(l);
-      const Index out = spec_.layer_outputs(l);
+      const Index out = spec_.layer_outputs(l), in = spec_.layer_inputs(l);
       const Activation act = spec_.layer_activation(l);
       const auto w = weight(l);
       const auto b = bias(l);
@@ -250,23 +249,13 @@ class Mlp {
       MatrixX<T>& post = cache.post[i];
       pre.resize(out, batch);
       post.resize(out, batch);
-      const double macs = double(out) * double(spec_.layer_inputs(l)) * double(batch);
-      // pre = W a + b, post = f(pre), chunk by chunk along the longer side of (out × B).
-      if (batch >= out) {
-        for_each_chunk(pool, batch, macs, [&](Index lo, Index hi) {
-          auto z = pre.middleCols(lo, hi - lo);
-          z.noalias() = w * a.middleCols(lo, hi - lo);
-          z.colwise() += b;
-          apply_activation<T>(act, z, post.middleCols(lo, hi - lo));
-        });
-      } else {
-        for_each_chunk(pool, out, macs, [&](Index lo, Index hi) {
-          auto z = pre.middleRows(lo, hi - lo);
-          z.noalias() = w.middleRows(lo, hi - lo) * a;
-          z.colwise() += b.segment(lo, hi - lo);
-          apply_activation<T>(act, z, post.middleRows(lo, hi - lo));
-        });
-      }
+      // pre = W a + b, post = f(pre), block by block along the longer side of (out × B).
+      for_each_block(pool, out, batch, worth_chunking(out, in, batch), [&](Index r0, Index nr, Index c0, Index nc) {
+        auto z = pre.block(r0, c0, nr, nc);
+        z.noalias() = w.middleRows(r0, nr) * a.middleCols(c0, nc);
+        z.colwise() += b.segment(r0, nr);
+        apply_activation<T>(act, z, post.block(r0, c0, nr, nc));
+      });
     }
     return cache.post.back();
   }
@@ -307,20 +296,14 @@ class Mlp {
       const auto w = weight(l);
       Eigen::Map<MatrixX<T>> gW(grad.data() + weight_offset(l), out, in);
       Eigen::Map<VectorX<T>> gb(grad.data() + bias_offset(l), out);
-      const double macs = double(out) * double(in) * double(batch);  // of each product below
-      // gW += d aᵀ and gb += Σ_j d_j, chunked along the longer side of gW (out × in).
-      if (out >= in) {
-        for_each_chunk(pool, out, macs, [&](Index lo, Index hi) {
-          const auto dc = d.middleRows(lo, hi - lo);
-          gW.middleRows(lo, hi - lo).noalias() += dc * a.transpose();
-          add_column_sum(gb.segment(lo, hi - lo), dc);
-        });
-      } else {
-        for_each_chunk(pool, in, macs, [&](Index lo, Index hi) {
-          gW.middleCols(lo, hi - lo).noalias() += d * a.middleRows(lo, hi - lo).transpose();
-        });
-        add_column_sum(gb, d);
-      }
+      const bool split = worth_chunking(out, in, batch);  // both products below are out·in·B
+      // gW += d aᵀ along the longer side of gW (out × in; rows on a tie), and gb += Σ_j d_j by
+      // the blocks that start at column 0 (all of them when the rows are split, else one).
+      for_each_block(pool, out, in, split, [&](Index r0, Index nr, Index c0, Index nc) {
+        const auto dr = d.middleRows(r0, nr);
+        gW.block(r0, c0, nr, nc).noalias() += dr * a.middleRows(c0, nc).transpose();
+        if (c0 == 0) add_column_sum(gb.segment(r0, nr), dr);
+      }, /*rows_on_tie=*/true);
       // ∂L/∂a_{l-1} = Wᵀ d (⊙ f'(z_{l-1}) below the first layer), chunked along (in × B).
       MatrixX<T>* da_target = nullptr;
       if (l > 0) {
@@ -332,19 +315,11 @@ class Mlp {
       if (da_target == nullptr) continue;
       auto da = da_target->topLeftCorner(in, batch);
       const MatrixX<T>* z_below = l > 0 ? &cache.pre[static_cast<std::size_t>(l - 1)] : nullptr;
-      if (batch >= in) {
-        for_each_chunk(pool, batch, macs, [&](Index lo, Index hi) {
-          auto dc = da.middleCols(lo, hi - lo);
-          dc.noalias() = w.transpose() * d.middleCols(lo, hi - lo);
-          if (z_below) mul_derivative(dc, z_below->middleCols(lo, hi - lo), spec_.activation);
-        });
-      } else {
-        for_each_chunk(pool, in, macs, [&](Index lo, Index hi) {
-          auto dc = da.middleRows(lo, hi - lo);
-          dc.noalias() = w.middleCols(lo, hi - lo).transpose() * d;
-          if (z_below) mul_derivative(dc, z_below->middleRows(lo, hi - lo), spec_.activation);
-        });
-      }
+      for_each_block(pool, in, batch, split, [&](Index r0, Index nr, Index c0, Index nc) {
+        auto dc = da.block(r0, c0, nr, nc);
+        dc.noalias() = w.middleCols(r0, nr).transpose() * d.middleCols(c0, nc);
+        if (z_below) mul_derivative(dc, z_below->block(r0, c0, nr, nc), spec_.activation);
+      });
       if (l > 0) std::swap(cur, nxt);
     }
   }
@@ -364,35 +339,21 @@ class Mlp {
     const auto w = weight(l);
     const auto b = bias(l);
     const Activation act = spec_.layer_activation(l);
-    const Index out = z.rows(), batch = z.cols();
-    const double macs = double(out) * double(spec_.layer_inputs(l)) * double(batch);
+    const Index out = z.rows(), batch = z.cols(), in = spec_.layer_inputs(l);
     if (batch == 1 && x.innerStride() == 1 && z.innerStride() == 1) {  // one sample: a streaming GEMV
-      const Index in = spec_.layer_inputs(l);
-      auto rows = [&](Index lo, Index hi) {
-        gemv_colmajor<T>(hi - lo, in, w.data() + lo, w.outerStride(), x.data(), z.data() + lo);
-      };
       // Memory-bound: with a pool, each thread streams its rows of W (same sums, any split).
-      if (pool != nullptr && double(out) * double(in) * sizeof(T) >= kMinSplitGemvBytes) {
-        for_each_chunk(pool, out, kMinChunkedMacs, rows);
-      } else {
-        rows(0, out);
-      }
+      const bool split = pool != nullptr && double(out) * double(in) * sizeof(T) >= kMinSplitGemvBytes;
+      for_each_chunk(pool, out, split, [&](Index lo, Index hi) {
+        gemv_colmajor<T>(hi - lo, in, w.data() + lo, w.outerStride(), x.data(), z.data() + lo);
+      });
       bias_activate(z, b, act);
       return;
     }
-    if (batch >= out) {
-      for_each_chunk(pool, batch, macs, [&](Index lo, Index hi) {
-        auto zc = z.middleCols(lo, hi - lo);
-        zc.noalias() = w * x.middleCols(lo, hi - lo);
-        bias_activate(zc, b, act);
-      });
-    } else {
-      for_each_chunk(pool, out, macs, [&](Index lo, Index hi) {
-        auto zc = z.middleRows(lo, hi - lo);
-        zc.noalias() = w.middleRows(lo, hi - lo) * x;
-        bias_activate(zc, b.segment(lo, hi - lo), act);
-      });
-    }
+    for_each_block(pool, out, batch, worth_chunking(out, in, batch), [&](Index r0, Index nr, Index c0, Index nc) {
+      auto zc = z.block(r0, c0, nr, nc);
+      zc.noalias() = w.middleRows(r0, nr) * x.middleCols(c0, nc);
+      bias_activate(zc, b.segment(r0, nr), act);
+    });
   }
 
   /// g (n) += Σ_j d.col(j), a vector add per column (contiguous, vectorised).
