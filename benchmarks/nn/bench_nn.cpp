@@ -260,6 +260,9 @@ int main(int argc, char** argv) {
   mallopt(M_TRIM_THRESHOLD, 512 << 20);
   benchmark::Initialize(&argc, argv);
   if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
+  // Every product timing depends on the kernel family OpenBLAS loaded (OPENBLAS_CORETYPE picks
+  // another): record it in the report's context next to the CPU.
+  benchmark::AddCustomContext("openblas_core", maskadapt::blas_core_name());
   benchmark::RunSpecifiedBenchmarks();
   benchmark::Shutdown();
   return 0;

@@ -4,6 +4,7 @@
 //   maskadapt_bench_sim --benchmark_min_time=2
 //
 // items_per_second = env control steps per second (one control step = 4 physics steps at 1/120 s).
+#include <maskadapt/core/blas_threads.hpp>
 #include <maskadapt/humanoid/observation.hpp>
 #include <maskadapt/mask/apply.hpp>
 #include <maskadapt/sim/mujoco/humanoid_sim.hpp>
@@ -80,4 +81,11 @@ BENCHMARK(BM_SimStepWithFeatures)
     ->MeasureProcessCPUTime();  // CPU column = all threads: 2-thread CPU ≈ 1-thread CPU ⇒ no parallel overhead
 BENCHMARK(BM_FeaturesOnly)->Arg(64)->Unit(benchmark::kMicrosecond)->UseRealTime();
 
-BENCHMARK_MAIN();
+int main(int argc, char** argv) {
+  benchmark::Initialize(&argc, argv);
+  if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
+  benchmark::AddCustomContext("openblas_core", maskadapt::blas_core_name());  // MuJoCo itself uses no BLAS
+  benchmark::RunSpecifiedBenchmarks();
+  benchmark::Shutdown();
+  return 0;
+}

@@ -1,6 +1,7 @@
 // `maskadapt train-base`: stage 1, the mask-invariant AMP base policy on the MuJoCo humanoid.
 #include "command_registry.hpp"
 
+#include <maskadapt/core/blas_threads.hpp>
 #include <maskadapt/core/checkpoint.hpp>
 #include <maskadapt/train/base_trainer.hpp>
 #include <maskadapt/train/config.hpp>
@@ -58,7 +59,8 @@ void run_train_base(const TrainBaseArgs& a) {
   auto lib = load_motion_library(cfg.env.motions, motion_data_dir(MASKADAPT_SOURCE_DIR "/../shared/data"));
   std::cout << "train-base: " << lib->num_clips() << " clip(s), " << lib->total_duration() << " s of motion; "
             << cfg.env.num_envs << " envs, preset " << cfg.preset << ", masking " << (cfg.mask.enabled ? "on" : "off")
-            << ", lambda_MI " << cfg.mask.lambda_mi << ", out " << cfg.run.out_dir << "\n";
+            << ", lambda_MI " << cfg.mask.lambda_mi << ", out " << cfg.run.out_dir << ", BLAS kernel " << blas_core_name()
+            << "\n";
   ThreadPool pool(static_cast<std::size_t>(cfg.run.threads));
   MujocoHumanoidSim sim(static_cast<std::size_t>(cfg.env.num_envs), pool);
   BaseTrainer<MujocoHumanoidSim> trainer(sim, library_reset_sampler(lib), library_window_sampler(lib), cfg, &pool);

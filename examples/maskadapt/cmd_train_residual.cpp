@@ -5,6 +5,7 @@
 // `play` stays untouched.
 #include "command_registry.hpp"
 
+#include <maskadapt/core/blas_threads.hpp>
 #include <maskadapt/core/checkpoint.hpp>
 #include <maskadapt/eval/rollout_file.hpp>
 #include <maskadapt/motion/bvh.hpp>
@@ -185,7 +186,8 @@ void run_train_residual(const Args& a) {
   }
   std::cout << "train-residual: task " << c.task << ", method " << c.method << ", masks";
   for (const auto& m : setup.masks) std::cout << " " << m.to_string();
-  std::cout << ", " << setup.discriminators.size() << " discriminator(s), out " << c.rl.run.out_dir << "\n";
+  std::cout << ", " << setup.discriminators.size() << " discriminator(s), out " << c.rl.run.out_dir
+            << ", BLAS kernel " << blas_core_name() << "\n";
   ResidualTrainer<MujocoHumanoidSim> trainer(sim, library_reset_sampler(base_lib), base, std::move(setup), c, &pool);
   if (resume) {
     trainer.load(*resume);

@@ -1,4 +1,5 @@
 #include <gtest/gtest.h>
+#include "../blas_kernel.hpp"
 
 #include <cmath>
 #include <cstring>
@@ -167,6 +168,7 @@ Eigen::VectorXf train_regression(std::size_t threads, int steps, float* final_lo
 }  // namespace
 
 TEST(Adam, RegressionReachesTargetLossAndIsBitIdenticalForAnyThreadCount) {
+  MASKADAPT_REQUIRE_REQUESTED_BLAS_CORE();
   float l1 = 0, l2 = 0, l3 = 0;
   const Eigen::VectorXf p1 = train_regression(1, 1500, &l1);
   const Eigen::VectorXf p2 = train_regression(2, 1500, &l2);

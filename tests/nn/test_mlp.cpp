@@ -1,4 +1,5 @@
 #include <gtest/gtest.h>
+#include "../blas_kernel.hpp"
 
 #include "fd.hpp"
 #include "maskadapt/nn/mlp.hpp"
@@ -217,6 +218,7 @@ TEST(Mlp, ChunkedProductsMatchDirectLayerFormulas) {
 // Same seed and data → bit-identical outputs and gradients with no pool and pools of 1, 2, 3
 // threads (the chunk partition depends on shapes only).
 TEST(Mlp, PoolSizeDoesNotChangeAnyBit) {
+  MASKADAPT_REQUIRE_REQUESTED_BLAS_CORE();
   Rng init(9);
   const MlpSpec spec{330, {256, 200}, 63};
   Mlp<float> net(spec, init);
@@ -265,6 +267,7 @@ TEST(Gemv, MatchesEigenOnEveryTailLength) {
 
 // Batch 1 with a pool: the GEMV's rows are split over the threads; every output is the same sum.
 TEST(Mlp, Batch1OnAPoolIsBitIdentical) {
+  MASKADAPT_REQUIRE_REQUESTED_BLAS_CORE();
   Rng init(12);
   const MlpSpec spec{330, {1024, 300}, 63};
   ASSERT_GE(1024.0 * 330.0 * sizeof(float), kMinSplitGemvBytes);  // the first layer really is split

@@ -5,6 +5,7 @@
 #include <maskadapt/train/residual_trainer.hpp>
 
 #include <gtest/gtest.h>
+#include "../blas_kernel.hpp"
 
 #include <cstring>
 
@@ -233,6 +234,7 @@ ResidualSetup tracking_setup(const Data& d, const std::vector<BodyPart>& parts) 
 // networks, optimiser moments and the next statistics equal those of 4 uninterrupted iterations,
 // bit for bit (the tiny sim saves its state).
 TEST(ResidualTrainer, ResumeContinuesBitExactly) {
+  MASKADAPT_REQUIRE_REQUESTED_BLAS_CORE();
   for (const std::string task : {"composition", "tracking"}) {
     Data d;
     const auto fall = [](const Skeleton& s) { return FallCriteria::for_skeleton(s, {"l_leg", "r_leg"}, "head", 0.8); };

@@ -5,9 +5,12 @@
 #include <maskadapt/train/base_trainer.hpp>
 
 #include <gtest/gtest.h>
+#include "../blas_kernel.hpp"
 
 #include <cstring>
 #include <filesystem>
+
+#include <unistd.h>  // getpid: one temp file per process (the BLAS matrix runs this test in parallel)
 
 using namespace maskadapt;
 using namespace maskadapt::train;
@@ -97,13 +100,14 @@ void expect_bit_identical(const Checkpoint& a, const Checkpoint& b) {
 }  // namespace
 
 TEST(BaseTrainer, ResumeIsBitExact) {
+  MASKADAPT_REQUIRE_REQUESTED_BLAS_CORE();
   const auto cfg = tiny_config();
   TinyRun straight(cfg);
   for (int i = 0; i < 4; ++i) straight.trainer.iterate();
 
   TinyRun first(cfg);
   for (int i = 0; i < 2; ++i) first.trainer.iterate();
-  const auto path = (std::filesystem::temp_directory_path() / "maskadapt_resume_test.ckpt").string();
+  const auto path = (std::filesystem::temp_directory_path() / ("maskadapt_resume_test_" + std::to_string(::getpid()) + ".ckpt")).string();
   first.trainer.save(path);
 
   auto other = cfg;

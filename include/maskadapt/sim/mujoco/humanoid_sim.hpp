@@ -152,12 +152,21 @@ class MujocoHumanoidSim {
   }
 
   // ---- exact state of one env (bit-exact resume; tasks::StateSavingSimulator) ----------------
-  // Added by the trainer (issue 5). Saves everything that determines the env's next steps:
+  // Saves everything that determines the env's next steps and what the library reads of it:
   // MuJoCo's time, qpos (nq), qvel (nv), act (na), qacc_warmstart (nv: the constraint solver's
-  // initial guess), ctrl (nu), the contact flags read out after the last step (num_bodies), and
-  // the pose a failure reset returns to. Layout: [nq, nv, na, nu, num_bodies, num_dofs, time,
-  // qpos, qvel, act, qacc_warmstart, ctrl, contacts, reset pose (root_pos 3, root_rot xyzw 4,
-  // q, root_lin_vel 3, root_ang_vel 3, qd)].
+  // initial guess), ctrl (nu), the contact flags and the body states read out after the last
+  // step, and the pose a failure reset returns to. Layout: [nq, nv, na, nu, num_bodies,
+  // num_dofs, time, qpos, qvel, act, qacc_warmstart, ctrl, contacts (nb), body pos (3·nb),
+  // body rot xyzw (4·nb), body lin_vel (3·nb), body ang_vel (3·nb), reset pose (root_pos 3,
+  // root_rot xyzw 4, q, root_lin_vel 3, root_ang_vel 3, qd)].
+  //
+  // Why the body states are saved rather than recomputed: MuJoCo 2.2.2's mj_kinematics
+  // normalises every free/ball-joint quaternion of qpos IN PLACE, and normalising a quaternion
+  // twice does not always give the same last bit (measured: 0.97648943284853129 →
+  // 0.97648943284853151). After a step, qpos already went through one such normalisation; a
+  // load that recomputed the body states would normalise it a second time, and both the next
+  // observation and the next step would differ in the last bits — on some trajectories and not
+  // others, which is why the resume test failed with one BLAS kernel and passed with another.
 
   /// Flat copy of env `env`'s state.
   std::vector<double> save_state(std::size_t env) const {
@@ -173,6 +182,10 @@ class MujocoHumanoidSim {
     append(d->qacc_warmstart, m->nv);
     append(d->ctrl, m->nu);
     append(e.contacts.data(), nb);
+    append(e.states.pos.data(), 3 * nb);
+    for (const Quat& q : e.states.rot) append(q.coeffs().data(), 4);
+    append(e.states.lin_vel.data(), 3 * nb);
+    append(e.states.ang_vel.data(), 3 * nb);
     const KinematicState& p = e.reset_pose;
     append(p.root_pos.data(), 3);
     append(p.root_rot.coeffs().data(), 4);
@@ -189,11 +202,11 @@ class MujocoHumanoidSim {
     Env& e = at(env);
     const mjModel* m = model_.get();
     const int nb = desc_.skeleton.num_bodies(), nd = desc_.skeleton.num_dofs();
-    const std::size_t expected = 7 + static_cast<std::size_t>(m->nq + 2 * m->nv + m->na + m->nu + nb + 13 + 2 * nd);
+    const std::size_t expected = 7 + static_cast<std::size_t>(m->nq + 2 * m->nv + m->na + m->nu + 14 * nb + 13 + 2 * nd);
     require(v.size() == expected && v.size() >= 6 && v[0] == m->nq && v[1] == m->nv && v[2] == m->na && v[3] == m->nu &&
                 v[4] == nb && v[5] == nd,
             "saved simulator state does not match this model (" + std::to_string(v.size()) + " values, expected " +
-                std::to_string(expected) + ")",
+                std::to_string(expected) + "; states saved before body states were part of it cannot be resumed)",
             {{}, {}, "sim_state"});
     for (double x : v) require(std::isfinite(x), "saved simulator state has a non-finite value", {{}, {}, "sim_state"});
     mjData* d = e.data.get();
@@ -209,6 +222,12 @@ class MujocoHumanoidSim {
     take(d->ctrl, m->nu);
     std::vector<std::uint8_t> contacts(static_cast<std::size_t>(nb));
     take(contacts.data(), nb);
+    BodyStates states;
+    states.resize(nb);
+    take(states.pos.data(), 3 * nb);
+    for (Quat& q : states.rot) take(q.coeffs().data(), 4);
+    take(states.lin_vel.data(), 3 * nb);
+    take(states.ang_vel.data(), 3 * nb);
     KinematicState& p = e.reset_pose;
     take(p.root_pos.data(), 3);
     take(p.root_rot.coeffs().data(), 4);
@@ -218,11 +237,14 @@ class MujocoHumanoidSim {
     take(p.root_ang_vel.data(), 3);
     p.qd.resize(nd);
     take(p.qd.data(), nd);
-    // Body states as after a step (positional quantities only; the solver state is untouched).
+    // mjData's derived quantities as after a step (positional only; the solver state is
+    // untouched). mj_kinematics renormalises qpos's quaternions in place (see above), so qpos is
+    // written back afterwards, and the body states are the saved ones, not a second read-out.
     mj_kinematics(m, d);
     mj_comPos(m, d);
     mj_comVel(m, d);
-    read_out(e);
+    std::memcpy(d->qpos, v.data() + 7, sizeof(mjtNum) * static_cast<std::size_t>(m->nq));
+    e.states = std::move(states);
     e.contacts = std::move(contacts);
   }
 
