@@ -62,6 +62,30 @@ void BM_FmaPeak(benchmark::State& state) {
 }
 BENCHMARK(BM_FmaPeak)->Threads(1)->Threads(2)->UseRealTime();
 
+#ifdef __AVX512F__
+/// The same with 512-bit FMAs: OpenBLAS's SkylakeX/Cooperlake kernels use them. On CPUs with two
+/// 512-bit FMA pipes (server Intel) this peak is twice the 256-bit one; on Zen 4 (double-pumped)
+/// it is the same. Compare an AVX-512 kernel's GEMM against this row, an AVX2 one against the other.
+void BM_FmaPeak512(benchmark::State& state) {
+  const long iters = 1 << 20;
+  for (auto _ : state) {
+    __m512 acc[12];
+    for (int k = 0; k < 12; ++k) acc[k] = _mm512_set1_ps(0.001f * k);
+    const __m512 a = _mm512_set1_ps(0.999f), b = _mm512_set1_ps(0.0001f);
+    for (long i = 0; i < iters; ++i) {
+#pragma GCC unroll 12
+      for (int k = 0; k < 12; ++k) acc[k] = _mm512_fmadd_ps(acc[k], a, b);
+    }
+    __m512 s = acc[0];
+    for (int k = 1; k < 12; ++k) s = _mm512_add_ps(s, acc[k]);
+    benchmark::DoNotOptimize(s);
+  }
+  state.counters["FLOPS"] = benchmark::Counter(double(iters) * 12 * 16 * 2 * double(state.iterations()),
+                                               benchmark::Counter::kIsRate);
+}
+BENCHMARK(BM_FmaPeak512)->Threads(1)->Threads(2)->UseRealTime();
+#endif
+
 /// Streaming floor for batch-1 inference: read as many bytes as the network's parameters, split
 /// over the benchmark's threads (each sums its share). The 7.8 MB of the big net fit in the 32 MB
 /// L3, so in a hot loop this is an L3 floor, not a DRAM one.
