@@ -19,20 +19,6 @@
 
 namespace maskadapt::testing {
 
-/// The CPU flags of /proc/cpuinfo (empty where there is none).
-inline std::set<std::string> cpu_flags() {
-  std::ifstream in("/proc/cpuinfo");
-  std::string line;
-  while (std::getline(in, line)) {
-    if (line.rfind("flags", 0) != 0) continue;
-    std::istringstream words(line.substr(line.find(':') + 1));
-    std::set<std::string> flags;
-    for (std::string w; words >> w;) flags.insert(w);
-    return flags;
-  }
-  return {};
-}
-
 /// Instructions OpenBLAS 0.3.21's kernel family `core` needs (cpuinfo names; "pni" is SSE3).
 inline std::vector<std::string> flags_needed_by(const std::string& core) {
   if (core == "Prescott") return {"pni"};
@@ -58,7 +44,7 @@ inline std::string blas_core_skip_reason(bool* mismatch) {
   if (blas_core_name() == "none") return "built without BLAS: OPENBLAS_CORETYPE=" + core + " has nothing to select";
   const std::vector<std::string> needed = flags_needed_by(core);
   if (needed.empty()) return "no instruction list for OPENBLAS_CORETYPE=" + core + " (tests/blas_kernel.hpp)";
-  const std::set<std::string> flags = cpu_flags();
+  const std::set<std::string> flags = ::maskadapt::cpu_flags();
   if (flags.empty()) return "no /proc/cpuinfo: cannot tell whether this CPU runs " + core + "'s kernels";
   for (const auto& f : needed)
     if (!flags.count(f)) return "this CPU lacks " + f + ", which OpenBLAS's " + core + " kernels need";

@@ -4,9 +4,27 @@
 #include <maskadapt/core/blas_threads.hpp>
 #include <maskadapt/core/error.hpp>
 
+#include <cstdlib>
 #include <iostream>
+#include <string>
+
+#include <unistd.h>  // execv
 
 int main(int argc, char** argv) {
+  // OpenBLAS picks its kernels when it loads; where it fell back to an SSE-only family on a CPU
+  // with AVX2/AVX-512 (core/blas_threads.hpp: recommended_blas_core), start again with the family
+  // set. Once: the restarted process finds OPENBLAS_CORETYPE set. MASKADAPT_KEEP_BLAS_CORE=1
+  // keeps OpenBLAS's own choice.
+  if (const char* keep = std::getenv("MASKADAPT_KEEP_BLAS_CORE"); !(keep && *keep && *keep != '0')) {
+    if (const std::string core = maskadapt::recommended_blas_core(); !core.empty()) {
+      std::cerr << "maskadapt: OpenBLAS chose its " << maskadapt::blas_core_name()
+                << " kernels (no FMA) on a CPU with " << (core == "SkylakeX" ? "AVX-512" : "AVX2 + FMA")
+                << "; restarting with OPENBLAS_CORETYPE=" << core << " (set OPENBLAS_CORETYPE or MASKADAPT_KEEP_BLAS_CORE=1 to choose yourself)\n";
+      ::setenv("OPENBLAS_CORETYPE", core.c_str(), 1);
+      ::execv("/proc/self/exe", argv);
+      std::cerr << "maskadapt: restart failed; continuing with " << maskadapt::blas_core_name() << "\n";
+    }
+  }
   // The trainers parallelise over envs themselves; OpenBLAS threads would fight them.
   maskadapt::limit_blas_threads(1);
   CLI::App app{"maskadapt: learn physics-based humanoid controllers that adapt parts of the body"};

@@ -3,6 +3,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cstdio>
 
 using namespace maskadapt;
@@ -106,6 +107,49 @@ TEST(MiLoss, GradientMatchesFiniteDifferences) {
       const double fd = (lp - loss_at(a)) / (2 * h);
       if (learn) EXPECT_NEAR(grad_ls[k], fd, 1e-7);
       else EXPECT_EQ(grad_ls[k], 0.0);  // fixed log-std gets no gradient
+    }
+  }
+}
+
+// The trainers' form: the MI gradient joins the caller's own ∂/∂μ on the masked pass it already
+// ran, and one backward carries both. The result equals the surrogate-like term's backward plus
+// mi_loss's gradient (two separate passes), in both gradient modes; the KL is the same, and the
+// null-mask column (column 0) is not run through the full pass at all.
+TEST(MiLoss, SharingTheMaskedPassGivesTheSameGradientAsSeparatePasses) {
+  for (const auto mode : {adapt::MiGradient::Both, adapt::MiGradient::TargetStopped}) {
+    for (bool learn : {false, true}) {
+      Rng rng(21);
+      MiProblem p(rng);
+      rl::GaussianActor<double> actor(p.config(learn), rng);
+      actor.normalizer.update(p.masked);
+      const MatrixXd g_other = MatrixXd::NullaryExpr(p.action_dim, p.batch, [&] { return rng.normal(); });
+      const double lambda = 0.9;
+      // separate: backward of the other term, then the whole mi_loss
+      adapt::MiWorkspace<double> w1;
+      nn::TrainCache<double> c1;
+      MatrixXd nm;
+      actor.zero_grad();
+      actor.normalize(p.masked, nm);
+      actor.mean_net.forward_train(nm, c1);
+      actor.mean_net.backward(c1, g_other, actor.mean_net.grads());
+      const double kl1 = adapt::mi_loss(actor, p.full, p.masked, lambda, w1, mode).kl;
+      const VectorXd g1 = actor.mean_net.grads(), ls1 = actor.log_std.grads();
+      // shared: one masked pass, MI's ∂/∂μ added to the other term's, one backward
+      adapt::MiWorkspace<double> w2;
+      nn::TrainCache<double> c2;
+      actor.zero_grad();
+      const MatrixXd& mu = actor.mean_net.forward_train(nm, c2);
+      MatrixXd dmu = g_other;
+      const double kl2 = adapt::mi_loss_on_masked_pass<double>(actor, p.full, p.masked, mu, lambda, w2, mode, dmu).kl;
+      actor.mean_net.backward(c2, dmu, actor.mean_net.grads());
+      EXPECT_NEAR(kl1, kl2, 1e-12);
+      EXPECT_LT((actor.mean_net.grads() - g1).cwiseAbs().maxCoeff(), 1e-12) << adapt::to_string(mode) << " " << learn;
+      EXPECT_LT((actor.log_std.grads() - ls1).cwiseAbs().maxCoeff(), 1e-12);
+      std::vector<Index> masked_columns;  // column 0 (and any other drawn as 0) has the null mask
+      for (Index j = 0; j < p.batch; ++j)
+        if (!p.masks[static_cast<std::size_t>(j)].empty()) masked_columns.push_back(j);
+      EXPECT_EQ(w2.cols, masked_columns);
+      EXPECT_LT(masked_columns.size(), static_cast<std::size_t>(p.batch));
     }
   }
 }

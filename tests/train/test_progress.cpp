@@ -27,6 +27,7 @@ TEST(TrainProgress, ProgressLineShowsTheKeyNumbers) {
   s.time_sim = 4;
   s.time_inference = 2;
   s.time_update = 4;
+  s.time_disc = 1.5;  // part of the update
   s.eta_s = 1270;
   const auto line = format_progress(s, 500);
   EXPECT_NE(line.find("120/500"), std::string::npos) << line;
@@ -35,6 +36,7 @@ TEST(TrainProgress, ProgressLineShowsTheKeyNumbers) {
   EXPECT_NE(line.find("r_D 0.412"), std::string::npos) << line;
   EXPECT_NE(line.find("KL_MI 0.0312"), std::string::npos) << line;
   EXPECT_NE(line.find("sim 40%"), std::string::npos) << line;
+  EXPECT_NE(line.find("upd 40% (disc 15%)"), std::string::npos) << line;
   EXPECT_NE(line.find("ETA 21m10s"), std::string::npos) << line;
 }
 
@@ -64,7 +66,7 @@ TEST(TrainProgress, JsonlLogWritesOneParsableObjectPerLine) {
     EXPECT_EQ(j.at("iteration").get<int>(), n);
     for (const char* key : {"samples", "samples_per_s", "episode_length", "disc_reward", "disc_real", "disc_fake",
                             "mi_kl", "policy_loss", "value_loss", "entropy", "approx_kl", "clip_frac", "grad_norm",
-                            "time_sim", "time_inference", "time_update", "skipped_updates"})
+                            "time_sim", "time_inference", "time_update", "time_disc", "skipped_updates"})
       EXPECT_TRUE(j.contains(key)) << key;
     if (n == 2) {
       EXPECT_TRUE(j.at("episode_length").is_null());  // NaN → null, still valid JSON

@@ -90,17 +90,84 @@ MiLossResult mi_loss_on_means(const Eigen::Ref<const MatrixX<T>>& mu_full, const
   return r;
 }
 
-/// Reusable buffers for mi_loss.
+/// Reusable buffers for mi_loss and mi_loss_on_masked_pass (the K columns are those whose mask
+/// is not the null mask).
 template <class T>
 struct MiWorkspace {
   MatrixX<T> norm_full, norm_masked, mu_full, dmu, dmu_full, dlog_std;
+  MatrixX<T> full_k, mu_masked_k, dmu_k;  ///< (input_dim × K), (d × K), (d × K)
+  std::vector<Index> cols;                ///< (K) columns with a non-null mask
   nn::InferenceWorkspace<T> ws;
   nn::TrainCache<T> cache, cache_full;
 };
 
+/// The MI term for a minibatch whose masked pass the caller has already run — the PPO surrogate's
+/// `forward_train` on [s̄ ; m] gave `mu_masked` (d × B) — so that the masked network pass is run
+/// once per minibatch, not twice. Only the full pass π(·|s, m⁰) is run here, and only on the K
+/// columns whose mask is not the null mask: for a null-mask column [s̄ ; m] == [s ; 0], so its KL
+/// is exactly 0 and so is its gradient (20 % of the samples at mask probability 0.8).
+///
+/// full_input = [s ; 0] and masked_input = [s̄ ; m] are (input_dim × B); a column's mask is read
+/// from masked_input's last kNumParts rows. L_MI is the mean over all B columns. ADDS
+/// λ·∂L_MI/∂μ_masked into `dmu_masked` (d × B), for the caller to back-propagate through its
+/// masked pass together with its own gradient; with MiGradient::Both, back-propagates the full
+/// pass here, adding into actor.mean_net.grads(); adds the log-std gradient into
+/// actor.log_std.grads() when the log-std is learned.
+template <class T>
+MiLossResult mi_loss_on_masked_pass(rl::GaussianActor<T>& actor,
+                                    const std::type_identity_t<Eigen::Ref<const MatrixX<T>>>& full_input,
+                                    const std::type_identity_t<Eigen::Ref<const MatrixX<T>>>& masked_input,
+                                    const std::type_identity_t<Eigen::Ref<const MatrixX<T>>>& mu_masked, double lambda,
+                                    MiWorkspace<T>& w, MiGradient gradient, MatrixX<T>& dmu_masked) {
+  const Index B = full_input.cols(), d = actor.action_dim(), D = actor.input_dim();
+  require(full_input.rows() == D && masked_input.rows() == D && masked_input.cols() == B && B > 0 && D > kNumParts,
+          "full and masked inputs must both be (policy_input_dim × B) with B > 0", {{}, {}, "mi_loss"});
+  require(mu_masked.rows() == d && mu_masked.cols() == B && dmu_masked.rows() == d && dmu_masked.cols() == B,
+          "mu_masked and dmu_masked must be (action_dim × B)", {{}, {}, "mi_loss.mu_masked"});
+  require(lambda >= 0, "lambda_MI must be >= 0", {{}, {}, "lambda_mi"});
+  w.cols.clear();
+  for (Index j = 0; j < B; ++j)
+    if (!(masked_input.col(j).tail(kNumParts).array() == T(0)).all()) w.cols.push_back(j);
+  const Index K = static_cast<Index>(w.cols.size());
+  MiLossResult r;
+  if (K == 0) return r;
+  w.full_k.resize(D, K);
+  w.mu_masked_k.resize(d, K);
+  for (Index k = 0; k < K; ++k) {
+    w.full_k.col(k) = full_input.col(w.cols[static_cast<std::size_t>(k)]);
+    w.mu_masked_k.col(k) = mu_masked.col(w.cols[static_cast<std::size_t>(k)]);
+  }
+  const bool through_target = gradient == MiGradient::Both && lambda > 0;
+  actor.normalize(w.full_k, w.norm_full);
+  if (through_target) {
+    w.mu_full = actor.mean_net.forward_train(w.norm_full, w.cache_full);
+  } else {
+    w.mu_full.resize(d, K);
+    actor.mean_net.forward(w.norm_full, w.mu_full, w.ws);  // stopped target: no cache, no gradient
+  }
+  // mean over B = (K/B)·mean over K: the K-column loss with weight λK/B has the same gradients
+  const double share = static_cast<double>(K) / static_cast<double>(B);
+  w.dmu_k.setZero(d, K);
+  w.dmu_full.setZero(through_target ? d : 0, through_target ? K : 0);
+  w.dlog_std.setZero(d, 1);
+  const MiLossResult rk = mi_loss_on_means<T>(w.mu_full, w.mu_masked_k, actor.log_std_col(), lambda * share, w.dmu_k,
+                                              actor.learn_log_std ? &w.dlog_std : nullptr,
+                                              through_target ? &w.dmu_full : nullptr);
+  r.kl = rk.kl * share;
+  r.loss = lambda * r.kl;
+  if (lambda > 0) {
+    for (Index k = 0; k < K; ++k) dmu_masked.col(w.cols[static_cast<std::size_t>(k)]) += w.dmu_k.col(k);
+    if (through_target) actor.mean_net.backward(w.cache_full, w.dmu_full, actor.mean_net.grads());
+    if (actor.learn_log_std) actor.log_std.grads() += w.dlog_std.col(0);
+  }
+  return r;
+}
+
 /// Whole MI loss for `actor`: full_input = policy input with the null mask (input_dim × B),
 /// masked_input = [s̄ ; m] (input_dim × B). Returns the loss and ADDS λ·∂L_MI/∂θ into
-/// actor.mean_net.grads() (and into actor.log_std.grads() when the log-std is learned).
+/// actor.mean_net.grads() (and into actor.log_std.grads() when the log-std is learned). Runs the
+/// masked pass itself; a trainer that already ran it for its surrogate calls
+/// mi_loss_on_masked_pass instead.
 template <class T>
 MiLossResult mi_loss(rl::GaussianActor<T>& actor, const std::type_identity_t<Eigen::Ref<const MatrixX<T>>>& full_input,
                      const std::type_identity_t<Eigen::Ref<const MatrixX<T>>>& masked_input, double lambda,
@@ -108,28 +175,12 @@ MiLossResult mi_loss(rl::GaussianActor<T>& actor, const std::type_identity_t<Eig
   require(full_input.rows() == actor.input_dim() && masked_input.rows() == actor.input_dim() &&
               full_input.cols() == masked_input.cols() && full_input.cols() > 0,
           "full and masked inputs must both be (policy_input_dim × B) with B > 0", {{}, {}, "mi_loss"});
-  const Index B = full_input.cols(), d = actor.action_dim();
-  const bool through_target = gradient == MiGradient::Both && lambda > 0;
-  actor.normalize(full_input, w.norm_full);
-  if (through_target) {
-    w.mu_full = actor.mean_net.forward_train(w.norm_full, w.cache_full);
-  } else {
-    w.mu_full.resize(d, B);
-    actor.mean_net.forward(w.norm_full, w.mu_full, w.ws);  // stopped target: no cache, no gradient
-  }
+  require(lambda >= 0, "lambda_MI must be >= 0", {{}, {}, "lambda_mi"});
   actor.normalize(masked_input, w.norm_masked);
   const MatrixX<T>& mu_masked = actor.mean_net.forward_train(w.norm_masked, w.cache);
-  w.dmu.setZero(d, B);
-  w.dmu_full.setZero(through_target ? d : 0, through_target ? B : 0);
-  w.dlog_std.setZero(d, 1);
-  const MiLossResult r = mi_loss_on_means<T>(w.mu_full, mu_masked, actor.log_std_col(), lambda, w.dmu,
-                                             actor.learn_log_std ? &w.dlog_std : nullptr,
-                                             through_target ? &w.dmu_full : nullptr);
-  if (lambda > 0) {
-    actor.mean_net.backward(w.cache, w.dmu, actor.mean_net.grads());
-    if (through_target) actor.mean_net.backward(w.cache_full, w.dmu_full, actor.mean_net.grads());
-    if (actor.learn_log_std) actor.log_std.grads() += w.dlog_std.col(0);
-  }
+  w.dmu.setZero(actor.action_dim(), masked_input.cols());
+  const MiLossResult r = mi_loss_on_masked_pass<T>(actor, full_input, masked_input, mu_masked, lambda, w, gradient, w.dmu);
+  if (lambda > 0) actor.mean_net.backward(w.cache, w.dmu, actor.mean_net.grads());
   return r;
 }
 

@@ -75,6 +75,7 @@ class BaseTrainer {
               ThreadPool* pool = nullptr, std::optional<FallCriteria> fall = std::nullopt)
       : cfg_((config.validate(), std::move(config))),
         task_(sim, std::move(reset), task_config(cfg_, std::move(fall)), cfg_.run.seed, pool),
+        mi_gradient_(adapt::mi_gradient_from_string(cfg_.mask.mi_gradient, "mask.mi_gradient")),
         real_(std::move(real)),
         rng_(Rng::stream(cfg_.run.seed, 0xB45E0000ULL)) {
     require(static_cast<bool>(real_), "no real window sampler given", {{}, {}, "real_sampler"});
@@ -113,10 +114,14 @@ class BaseTrainer {
     task_.stats().clear();
     collect(st);
     Stopwatch upd;
+    Stopwatch disc_rewards;
     compute_rewards(st);
+    st.time_disc += disc_rewards.seconds();
     rl::compute_gae(buf_, rl::GaeParams{cfg_.ppo.gamma, cfg_.ppo.gae_lambda});
     update_policy(st);
+    Stopwatch disc_update;
     update_discriminator(st);
+    st.time_disc += disc_update.seconds();
     // Input statistics change only between iterations, so the behaviour policy that produced
     // buf_.log_probs is exactly the policy at the start of the PPO update.
     policy_.ac.update_normalizers(buf_.policy_input, buf_.obs);
@@ -263,15 +268,15 @@ class BaseTrainer {
         const float bound = static_cast<float>(M_PI), wb = static_cast<float>(cfg_.ppo.action_bound_weight);
         dmu.array() += wb / static_cast<float>(B) *
                        ((mu.array() - bound).max(0.0f) + (mu.array() + bound).min(0.0f)) * 2.0f;
-        actor.mean_net.backward(actor_cache_, dmu, actor.mean_net.grads());
-        if (actor.learn_log_std && dls.size()) actor.log_std.grads() += dls.col(0);
+        // λ_MI·L_MI reuses the surrogate's masked pass: its ∂/∂μ joins dmu before the one backward
         double mi_kl = 0;
         if (cfg_.mask.enabled) {
           adapt::unmasked_policy_input<float>(obs, task_.policy_input_dim(), full);
-          mi_kl = adapt::mi_loss<float>(actor, full, pin, cfg_.mask.lambda_mi, mi_ws_,
-                                          adapt::mi_gradient_from_string(cfg_.mask.mi_gradient, "mask.mi_gradient"))
+          mi_kl = adapt::mi_loss_on_masked_pass<float>(actor, full, pin, mu, cfg_.mask.lambda_mi, mi_ws_, mi_gradient_, dmu)
                       .kl;
         }
+        actor.mean_net.backward(actor_cache_, dmu, actor.mean_net.grads());
+        if (actor.learn_log_std && dls.size()) actor.log_std.grads() += dls.col(0);
         const auto ar = actor_opt_.step(actor.trainable_blocks());
         if (!ar.applied) ++st.skipped_updates;
         // critic
@@ -343,6 +348,7 @@ class BaseTrainer {
 
   BaseTrainConfig cfg_;
   tasks::ImitationTask<Sim> task_;
+  adapt::MiGradient mi_gradient_;
   RealWindowSampler real_;
   Rng rng_;
   BasePolicy policy_;

@@ -30,7 +30,8 @@ class Stopwatch {
 
 /// Everything logged for one iteration. Times are wall-clock seconds of this iteration, split
 /// into simulation (physics stepping), inference (policy/value/discriminator forward passes and
-/// features during collection) and update (GAE, PPO, MI and discriminator steps).
+/// features during collection) and update (GAE, PPO, MI and discriminator steps); time_disc is
+/// the discriminators' part of the update (their reward pass on the rollout and their steps).
 struct IterationStats {
   long long iteration = 0;        ///< 1-based index of the iteration just finished
   long long samples = 0;          ///< total env steps collected so far (all envs)
@@ -54,6 +55,7 @@ struct IterationStats {
   double time_sim = 0;
   double time_inference = 0;
   double time_update = 0;
+  double time_disc = 0;           ///< part of time_update: discriminator rewards + updates
   double time_total = 0;
   long long skipped_updates = 0;  ///< non-finite update steps skipped in this iteration
   long long sim_resets = 0;       ///< envs reset by the simulator because physics went non-finite
@@ -104,6 +106,7 @@ inline nlohmann::json to_json(const IterationStats& s) {
           {"time_sim", num(s.time_sim)},
           {"time_inference", num(s.time_inference)},
           {"time_update", num(s.time_update)},
+          {"time_disc", num(s.time_disc)},
           {"time_total", num(s.time_total)},
           {"skipped_updates", s.skipped_updates},
           {"sim_resets", s.sim_resets},
@@ -147,7 +150,8 @@ inline std::string format_duration(double seconds) {
 }
 
 /// The terminal progress line, e.g.
-/// `it   120/500 | 3,140 sps | ep 6.21 s | r_D 0.412 | KL_MI 0.0312 | sim 41% inf 22% upd 37% | ETA 21m10s`
+/// `it   120/500 | 3,140 sps | ep 6.21 s | r_D 0.412 | KL_MI 0.0312 | sim 41% inf 22% upd 37% (disc 12%) | ETA 21m10s`
+/// (the disc share is of the whole iteration, and is part of the upd share)
 inline std::string format_progress(const IterationStats& s, long long total_iterations) {
   const double t = s.time_sim + s.time_inference + s.time_update;
   auto pct = [&](double x) { return t > 0 ? 100.0 * x / t : 0.0; };
@@ -158,9 +162,9 @@ inline std::string format_progress(const IterationStats& s, long long total_iter
   if (total_iterations > 0) std::snprintf(total, sizeof total, "/%lld", total_iterations);
   char buf[256];
   std::snprintf(buf, sizeof buf,
-                "it %6lld%s | %6.0f sps | ep %s | r_D %.3f | KL_MI %.4f | sim %2.0f%% inf %2.0f%% upd %2.0f%% | ETA %s%s",
+                "it %6lld%s | %6.0f sps | ep %s | r_D %.3f | KL_MI %.4f | sim %2.0f%% inf %2.0f%% upd %2.0f%% (disc %2.0f%%) | ETA %s%s",
                 s.iteration, total, s.samples_per_s, ep, s.disc_reward, s.mi_kl, pct(s.time_sim),
-                pct(s.time_inference), pct(s.time_update), format_duration(s.eta_s).c_str(),
+                pct(s.time_inference), pct(s.time_update), pct(s.time_disc), format_duration(s.eta_s).c_str(),
                 s.skipped_updates > 0 ? " | SKIPPED non-finite updates" : "");
   return buf;
 }

@@ -375,10 +375,14 @@ class ResidualTrainer {
     collect(st);
     if (setup_.tracking) st.extra["tracking_terminations"] = static_cast<double>(tracking_terminations_);
     Stopwatch upd;
-    compute_rewards(st);
+    Stopwatch disc_rewards;
+    compute_rewards(st);  // (the tracking task's reward terms are timed with the discriminators')
+    st.time_disc += disc_rewards.seconds();
     rl::compute_gae(buf_, rl::GaeParams{cfg_.rl.ppo.gamma, cfg_.rl.ppo.gae_lambda});
     update_policy(st);
+    Stopwatch disc_update;
     update_discriminators(st);
+    st.time_disc += disc_update.seconds();
     st.time_update += upd.seconds();
     ++iteration_;
     samples_ += buf_.size();
