@@ -24,3 +24,31 @@ inline std::string cmu_dir() {
   if (dir.empty())                                                                                  \
   GTEST_SKIP() << "shared CMU clips not found (set MASKADAPT_DATA_DIR to the directory holding "    \
                   "motions/cmu/)"
+
+namespace maskadapt::test {
+
+/// <data dir>/motions/<sub> (e.g. "bandai/locomotion"), from MASKADAPT_DATA_DIR or the
+/// compiled-in default; empty if absent.
+inline std::string motions_dir(const std::string& sub) {
+  std::string base;
+  if (const char* e = std::getenv("MASKADAPT_DATA_DIR"); e && *e) base = e;
+#ifdef MASKADAPT_DEFAULT_DATA_DIR
+  if (base.empty()) base = MASKADAPT_DEFAULT_DATA_DIR;
+#endif
+  const auto dir = std::filesystem::path(base) / "motions" / sub;
+  return !base.empty() && std::filesystem::is_directory(dir) ? dir.string() : std::string();
+}
+
+/// The data directory itself (holding motions/), or empty.
+inline std::string data_base_dir() {
+  const std::string d = motions_dir(".");
+  return d.empty() ? d : std::filesystem::path(d).parent_path().parent_path().string();
+}
+
+}  // namespace maskadapt::test
+
+#define MASKADAPT_REQUIRE_MOTIONS(dir, sub)                                                         \
+  const std::string dir = ::maskadapt::test::motions_dir(sub);                                      \
+  if (dir.empty())                                                                                  \
+  GTEST_SKIP() << "shared motions/" sub " not found (set MASKADAPT_DATA_DIR to the directory "      \
+                  "holding motions/)"

@@ -5,7 +5,8 @@
 /// a jump in place. Feet are placed by inverse kinematics: a stance foot is planted flat on the
 /// floor (no skating by construction), swing feet follow smooth arcs; every clip is grounded.
 ///
-/// `builtin_motion_set(name)` gathers clips for a purpose: "locomotion" (the CMU walks/runs when
+/// `builtin_motion_set(name)` gathers clips for a purpose (real sets such as "bandai-locomotion":
+/// motion_set_specs): "locomotion" (the CMU walks/runs when
 /// MASKADAPT_DATA_DIR has them, else the synthetic walk), "synthetic" (all four), or one of
 /// "walk", "arms", "kick", "jump".
 #include <maskadapt/core/error.hpp>
@@ -327,7 +328,84 @@ inline std::string motion_data_dir(const std::string& fallback = {}) {
   return fallback;
 }
 
-/// Clips for a purpose (see file comment). CMU files are looked up in <data_dir>/motions/cmu.
+/// A named set of real clips in the shared data directory: every .bvh in `<data_dir>/<folder>`
+/// whose file name contains one of `include` (all if empty) and none of `exclude`, sorted by name.
+struct MotionSetSpec {
+  std::string name;
+  std::string folder;                ///< relative to the data directory
+  std::vector<std::string> include;  ///< file-name substrings (any)
+  std::vector<std::string> exclude;  ///< file-name substrings (none)
+  std::string what;                  ///< one line for error messages and docs
+};
+
+/// The named sets of real motion capture (docs/motion.md). Bandai: "Bandai-Namco-Research-
+/// Motiondataset (c) 2022 Bandai Namco Research Inc., licensed under CC BY-NC 4.0".
+inline const std::vector<MotionSetSpec>& motion_set_specs() {
+  static const std::vector<MotionSetSpec> specs = {
+      {"bandai-locomotion", "motions/bandai/locomotion", {}, {}, "Bandai walks, runs and 90-degree turns (140 clips, 691 s)"},
+      {"bandai-walk", "motions/bandai/locomotion", {"_walk"}, {}, "Bandai walks and walking turns, no runs (89 clips)"},
+      {"bandai-walk-straight", "motions/bandai/locomotion", {"_walk_normal"}, {}, "Bandai straight walks (24 clips)"},
+      {"bandai-turn", "motions/bandai/locomotion", {"_walk-turn-"}, {}, "Bandai walking turns left and right (65 clips)"},
+      {"bandai-run", "motions/bandai/locomotion", {"_run_"}, {}, "Bandai runs (51 clips)"},
+      {"bandai-gestures", "motions/bandai/gestures", {}, {}, "Bandai waving while standing (20 clips)"},
+      {"bandai-actions", "motions/bandai/actions", {}, {}, "Bandai kicks and punches (3 clips)"},
+      {"styles", "motions/styles", {}, {}, "boxing, jumping jacks, hops, a kick, walks, swim and wipe (12 clips)"},
+      {"cmu-131", "motions/cmu-131", {}, {}, "CMU subject 131: start-walk-stop, start-hop-stop (3 clips)"},
+  };
+  return specs;
+}
+
+inline const MotionSetSpec* find_motion_set(const std::string& name) {
+  for (const auto& s : motion_set_specs())
+    if (s.name == name) return &s;
+  return nullptr;
+}
+
+/// Text labels from a clip's file name (Bandai: "walk forward", "run forward", "walk and turn left", …).
+inline std::vector<std::string> labels_from_file_name(const std::string& stem) {
+  if (stem.find("walk-turn-left") != std::string::npos) return {"walk and turn left", "turn left", "walk"};
+  if (stem.find("walk-turn-right") != std::string::npos) return {"walk and turn right", "turn right", "walk"};
+  if (stem.find("run") != std::string::npos) return {"run forward", "run"};
+  if (stem.find("walk") != std::string::npos) return {"walk forward", "walk"};
+  if (stem.find("wave") != std::string::npos || stem.find("bye") != std::string::npos) return {"wave", "wave hand"};
+  if (stem.find("kick") != std::string::npos) return {"kick"};
+  if (stem.find("punch") != std::string::npos || stem.find("box") != std::string::npos) return {"punch", "box"};
+  if (stem.find("hop") != std::string::npos) return {"hop", "jump in place"};
+  if (stem.find("jump") != std::string::npos) return {"jump"};
+  return {stem};
+}
+
+/// Loads a named set: throws naming the directory when it is missing or holds no matching clip.
+inline std::vector<MotionClip> load_motion_set(const MotionSetSpec& spec, const std::string& data_dir) {
+  namespace fs = std::filesystem;
+  const fs::path dir = fs::path(data_dir) / spec.folder;
+  require(!data_dir.empty() && fs::is_directory(dir),
+          "motion set '" + spec.name + "' (" + spec.what + ") needs the directory " + dir.string() +
+              ": set MASKADAPT_DATA_DIR to the folder holding motions/",
+          {dir.string(), std::nullopt, "motions"});
+  std::vector<fs::path> files;
+  for (const auto& e : fs::directory_iterator(dir)) {
+    if (e.path().extension() != ".bvh") continue;
+    const std::string f = e.path().filename().string();
+    bool in = spec.include.empty();
+    for (const auto& s : spec.include) in = in || f.find(s) != std::string::npos;
+    for (const auto& s : spec.exclude) in = in && f.find(s) == std::string::npos;
+    if (in) files.push_back(e.path());
+  }
+  std::sort(files.begin(), files.end());
+  require(!files.empty(), "motion set '" + spec.name + "': no matching .bvh files", {dir.string(), std::nullopt, "motions"});
+  std::vector<MotionClip> out;
+  out.reserve(files.size());
+  for (const auto& f : files) {
+    MotionClip c = import_motion(f.string());
+    c.labels = labels_from_file_name(c.name);
+    out.push_back(std::move(c));
+  }
+  return out;
+}
+
+/// Clips for a purpose (see file comment). CMU files are looked up in <data_dir>/motions/cmu;
+/// the named real sets (motion_set_specs: `bandai-locomotion`, `bandai-walk`, …) in their folders.
 inline std::vector<MotionClip> builtin_motion_set(const std::string& name, const std::string& data_dir = motion_data_dir()) {
   std::vector<MotionClip> out;
   if (name == "locomotion") {
@@ -344,8 +422,15 @@ inline std::vector<MotionClip> builtin_motion_set(const std::string& name, const
     return out;
   }
   if (name == "synthetic") return {synthetic_walk(), synthetic_arm_circles(), synthetic_kick(), synthetic_jump()};
-  out.push_back(synthetic_clip(name));
-  return out;
+  if (const MotionSetSpec* spec = find_motion_set(name)) return load_motion_set(*spec, data_dir);
+  if (name == "walk" || name == "arms" || name == "arm_circles" || name == "rotate_arms" || name == "kick" ||
+      name == "jump" || name.rfind("synthetic:", 0) == 0) {
+    out.push_back(synthetic_clip(name));
+    return out;
+  }
+  std::string known = "locomotion, synthetic, walk, arms, kick, jump";
+  for (const auto& s : motion_set_specs()) known += ", " + s.name;
+  throw Error("unknown motion set '" + name + "' (expected one of: " + known + ")", {{}, std::nullopt, "motions"});
 }
 
 }  // namespace maskadapt

@@ -19,8 +19,11 @@
 namespace maskadapt::train {
 
 /// Adds every source to a library on the reference humanoid. A source is a built-in set name
-/// (`locomotion`, `synthetic`, `walk`, `arms`, `kick`, `jump`), a directory (all .bvh/.npz
-/// files in it, sorted) or one clip file. Throws naming the source when nothing can be loaded.
+/// (`locomotion`, `synthetic`, `walk`, `arms`, `kick`, `jump`, or a real set of the data
+/// directory: `bandai-locomotion`, `bandai-walk`, `bandai-walk-straight`, `bandai-turn`,
+/// `bandai-run`, `bandai-gestures`, `bandai-actions`, `styles`, `cmu-131` — motion_set_specs()),
+/// a directory (all .bvh/.npz files in it, sorted) or one clip file. Throws naming the source
+/// when nothing can be loaded.
 inline std::shared_ptr<MotionLibrary> load_motion_library(const std::vector<std::string>& sources,
                                                           const std::string& data_dir = motion_data_dir()) {
   auto lib = std::make_shared<MotionLibrary>();
