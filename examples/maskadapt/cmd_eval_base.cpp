@@ -1,8 +1,11 @@
 // `maskadapt eval-base`: the H_norm table of a stage-1 base policy (null mask, every mask of one
 // or two parts; random and shared initial states) with fall rates and episode lengths.
+#include "cli_checks.hpp"
 #include "command_registry.hpp"
 
 #include <maskadapt/core/checkpoint.hpp>
+#include <maskadapt/mask/sampler.hpp>
+#include <maskadapt/train/config.hpp>
 #include <maskadapt/train/base_policy.hpp>
 #include <maskadapt/train/eval_base.hpp>
 #include <maskadapt/train/motion_sources.hpp>
@@ -83,13 +86,17 @@ const bool registered = maskadapt::cli::register_command([](CLI::App& app) {
   auto args = std::make_shared<EvalBaseArgs>();
   CLI::App* c = app.add_subcommand("eval-base", "H_norm table, fall rate and episode length of a stage-1 base policy");
   c->add_option("checkpoint", args->checkpoint, "stage-1 checkpoint (train-base output)")->required();
-  c->add_option("--envs", args->envs, "parallel envs per (mask, start)");
-  c->add_option("--frames", args->frames, "control steps per env per (mask, start)");
-  c->add_option("--threshold", args->threshold, "visitation distance threshold (m, Euclidean over all body features)");
-  c->add_option("--episode-seconds", args->episode_seconds, "episode length limit (s)");
+  using namespace maskadapt::cli;
+  c->add_option("--envs", args->envs, "parallel envs per (mask, start)")->transform(integer_in(1, maskadapt::train::kMaxEnvs));
+  c->add_option("--frames", args->frames, "control steps per env per (mask, start)")->transform(positive_integer());
+  c->add_option("--threshold", args->threshold, "visitation distance threshold (m, Euclidean over all body features)")
+      ->check(positive_real());
+  c->add_option("--episode-seconds", args->episode_seconds, "episode length limit (s)")
+      ->check(positive_real(maskadapt::train::kMaxEpisodeSeconds));
   c->add_option("--motions", args->motions, "reference motions (default: the checkpoint's)");
-  c->add_option("--seed", args->seed, "seed (the same for every mask)");
-  c->add_option("--threads", args->threads, "simulation threads (0 = all cores)");
+  c->add_option("--seed", args->seed, "seed (the same for every mask)")->transform(non_negative_integer());
+  c->add_option("--threads", args->threads, "simulation threads (0 = all cores)")
+      ->transform(integer_in(0, maskadapt::train::kMaxThreads));
   c->add_option("--json", args->json, "write the table as JSON");
   c->add_flag("--deterministic", args->deterministic, "use the policy mean instead of sampling");
   c->callback([args] { run_eval_base(*args); });

@@ -1,5 +1,6 @@
 // `maskadapt train-generator` and `maskadapt generate`: the built-in text-conditioned motion
 // generator (tracking/builtin_generator.hpp).
+#include "cli_checks.hpp"
 #include "command_registry.hpp"
 
 #include <maskadapt/humanoid/description.hpp>
@@ -12,6 +13,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <iostream>
+#include <limits>
 #include <memory>
 
 namespace {
@@ -35,7 +37,7 @@ struct TrainOptions {
 
 struct GenerateOptions {
   std::string checkpoint, text = "raise arms", bvh;
-  double seconds = 5.0, guidance = -1.0;
+  double seconds = 5.0, guidance = -1.0;  ///< guidance < 0: not given (the checkpoint's)
   unsigned long long seed = 1;
 };
 
@@ -80,7 +82,7 @@ void run_generate(const GenerateOptions& o) {
   const Skeleton& skel = humanoid_skeleton();
   BuiltinGenerator g = BuiltinGenerator::load(o.checkpoint, skel);
   if (o.guidance >= 0) g.config().guidance = o.guidance;
-  require(o.seconds > 0 && o.seconds <= 600, "seconds must lie in (0, 600]", {{}, {}, "--seconds"});
+  require(o.seconds > 0 && o.seconds <= 600, "must be a number in (0, 600]", {{}, {}, "--seconds"});  // checked when parsed, too
   const auto schedule = parse_text_schedule(o.text);
   // History: the standing pose held for H frames.
   Trajectory hist = Trajectory::zeros(skel, g.history_frames());
@@ -113,21 +115,28 @@ const bool registered = maskadapt::cli::register_command([](CLI::App& app) {
   auto topt = std::make_shared<TrainOptions>();
   auto* train = app.add_subcommand("train-generator", "train the built-in text-conditioned motion generator (VAE + latent diffusion)");
   train->add_option("--data", topt->data, "directory of labelled .bvh/.npz clips (default: $MASKADAPT_DATA_DIR/motions/cmu)");
-  auto* minutes = train->add_option("--minutes", topt->minutes, "wall-clock budget, split between the VAE and the diffusion stage");
-  train->add_option("--iterations", topt->iterations, "iterations per stage (default 2000)")->excludes(minutes);
-  train->add_option("--batch", topt->batch, "batch size (default 64)");
-  train->add_option("--stride", topt->stride, "frames between training windows (default 2)");
-  train->add_option("--seed", topt->seed, "random seed");
+  using namespace maskadapt::cli;
+  auto* minutes = train->add_option("--minutes", topt->minutes, "wall-clock budget, split between the VAE and the diffusion stage")
+                      ->check(positive_real());
+  train->add_option("--iterations", topt->iterations, "iterations per stage (default 2000)")
+      ->excludes(minutes)
+      ->transform(positive_integer());
+  train->add_option("--batch", topt->batch, "batch size (default 64)")->transform(integer_in(1, 65536));
+  train->add_option("--stride", topt->stride, "frames between training windows (default 2)")
+      ->transform(positive_integer(std::numeric_limits<int>::max()));
+  train->add_option("--seed", topt->seed, "random seed")->transform(non_negative_integer());
   train->add_option("--out", topt->out, "checkpoint to write")->required();
   train->callback([topt] { run_train(*topt); });
 
   auto gopt = std::make_shared<GenerateOptions>();
   auto* gen = app.add_subcommand("generate", "generate motion from text with a trained generator");
   gen->add_option("--checkpoint", gopt->checkpoint, "generator checkpoint (from train-generator)")->required();
-  gen->add_option("--text", gopt->text, "prompt, or a schedule \"0:wave hands,5:raise arms\"");
-  gen->add_option("--seconds", gopt->seconds, "length (s)");
-  gen->add_option("--guidance", gopt->guidance, "classifier-free guidance weight (default: the checkpoint's, 5)");
-  gen->add_option("--seed", gopt->seed, "random seed");
+  gen->add_option("--text", gopt->text, "prompt, or a schedule \"0:wave hands,5:raise arms\"")
+      ->check(parsed_by([](const std::string& t) { (void)parse_text_schedule(t); }, "TEXT"));
+  gen->add_option("--seconds", gopt->seconds, "length (s)")->check(real_in(0, 600, true, false));
+  gen->add_option("--guidance", gopt->guidance, "classifier-free guidance weight (default: the checkpoint's, 5)")
+      ->check(non_negative_real());
+  gen->add_option("--seed", gopt->seed, "random seed")->transform(non_negative_integer());
   gen->add_option("--bvh", gopt->bvh, "write the motion as BVH");
   gen->callback([gopt] { run_generate(*gopt); });
 });

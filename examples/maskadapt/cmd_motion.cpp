@@ -6,6 +6,7 @@
 //
 // FILE / CLIP: a BVH file (retargeted onto the humanoid), an AMASS .npz, a maskadapt clip .npz,
 // or a built-in clip `synthetic:walk|arms|kick|jump`.
+#include "cli_checks.hpp"
 #include "command_registry.hpp"
 
 #include <maskadapt/humanoid/description.hpp>
@@ -15,6 +16,7 @@
 #include <maskadapt/motion/retarget.hpp>
 #include <maskadapt/motion/synthetic.hpp>
 
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <iostream>
@@ -28,6 +30,7 @@ struct MotionOptions {
   std::string file, out, bvh_out, joint_map;
   double fps = 30.0;
   bool loop = false, markdown = false, z_up = false;
+  bool fps_given = false;  ///< --fps was on the command line
   std::vector<std::string> labels;
 };
 
@@ -92,6 +95,10 @@ void info(const MotionOptions& o) {
 
 void import_cmd(const MotionOptions& o) {
   MotionClip c = load_any(o, nullptr);
+  // Built-in clips and maskadapt clips keep their own rate; only BVH / AMASS sources are resampled.
+  require(!o.fps_given || std::abs(c.fps - o.fps) < 1e-9,
+          "only BVH and AMASS sources are resampled; this one stays at its own " + std::to_string(c.fps) + " fps",
+          {o.file, std::nullopt, "--fps"});
   if (!o.labels.empty()) c.labels = o.labels;
   if (o.loop) c.loop = true;
   save_clip(o.out, c);
@@ -120,10 +127,13 @@ const bool registered = maskadapt::cli::register_command([](CLI::App& app) {
   imp->add_option("file", opt->file, "BVH, AMASS .npz or synthetic:NAME")->required();
   imp->add_option("--out", opt->out, "output clip (.npz)")->required();
   imp->add_option("--joint-map", opt->joint_map, "joint map JSON for an unknown BVH skeleton");
-  imp->add_option("--fps", opt->fps, "output frame rate")->check(CLI::PositiveNumber);
+  imp->add_option("--fps", opt->fps, "output frame rate (Hz)")->check(maskadapt::cli::positive_real(1000));
   imp->add_flag("--loop", opt->loop, "mark the clip as cyclic");
   imp->add_option("--label", opt->labels, "text label (repeatable)");
-  imp->callback([opt] { import_cmd(*opt); });
+  imp->callback([opt, imp] {
+    opt->fps_given = imp->count("--fps") > 0;
+    import_cmd(*opt);
+  });
 
   CLI::App* exp = motion->add_subcommand("export", "Write a clip as BVH (opens in Blender)");
   exp->add_option("clip", opt->file, "clip .npz, BVH, AMASS .npz or synthetic:NAME")->required();

@@ -1,8 +1,11 @@
 // `maskadapt play`: run a stage-1 base policy on the MuJoCo humanoid with a fixed or scheduled
 // part mask and export the rollout (BVH, root XY CSV, viewer JSON).
+#include "cli_checks.hpp"
 #include "command_registry.hpp"
 
 #include <maskadapt/core/checkpoint.hpp>
+#include <maskadapt/mask/sampler.hpp>
+#include <maskadapt/train/config.hpp>
 #include <maskadapt/eval/rollout_file.hpp>
 #include <maskadapt/motion/bvh.hpp>
 #include <maskadapt/motion/retarget.hpp>
@@ -100,15 +103,21 @@ void run_play(const PlayArgs& a) {
 const bool registered = maskadapt::cli::register_command([](CLI::App& app) {
   auto args = std::make_shared<PlayArgs>();
   CLI::App* c = app.add_subcommand("play", "Run a stage-1 base policy with a part mask and export the rollout");
+  using namespace maskadapt::cli;
   c->add_option("checkpoint", args->checkpoint, "stage-1 checkpoint (train-base output)")->required();
-  c->add_option("--mask", args->mask, "fixed mask: comma-separated parts/groups (left_leg,right_leg | arms | none ...)");
-  c->add_option("--mask-schedule", args->schedule, "masks over time, e.g. \"0:none,5:lower_body\"");
-  c->add_option("--seconds", args->seconds, "length of the rollout (s)");
+  c->add_option("--mask", args->mask, "fixed mask: comma-separated parts/groups (left_leg,right_leg | arms | none ...)")
+      ->check(parsed_by([](const std::string& t) { (void)maskadapt::PartMask::parse(t); }, "MASK"));
+  c->add_option("--mask-schedule", args->schedule, "masks over time, e.g. \"0:none,5:lower_body\"")
+      ->check(parsed_by([](const std::string& t) {
+        (void)maskadapt::MaskSampler::scheduled(maskadapt::parse_mask_schedule(t, "--mask-schedule"));
+      }, "SCHEDULE"));
+  c->add_option("--seconds", args->seconds, "length of the rollout (s)")
+      ->check(positive_real(maskadapt::train::kMaxEpisodeSeconds));
   c->add_option("--bvh", args->bvh, "write the rollout as BVH");
   c->add_option("--csv", args->csv, "write the root XY trajectory as CSV (t,x,y)");
   c->add_option("--rollout", args->rollout, "write the viewer JSON rollout (per-frame mask and contacts)");
   c->add_option("--motions", args->motions, "motion sources for the initial state (default: the checkpoint's)");
-  c->add_option("--seed", args->seed, "seed of the initial state and the action noise");
+  c->add_option("--seed", args->seed, "seed of the initial state and the action noise")->transform(non_negative_integer());
   c->add_flag("--deterministic", args->deterministic, "use the policy mean instead of sampling");
   c->add_flag("--reset-on-fall", args->reset_on_fall, "reset to a reference state after a fall");
   c->callback([args] {

@@ -1,8 +1,10 @@
 // `maskadapt train-base`: stage 1, the mask-invariant AMP base policy on the MuJoCo humanoid.
+#include "cli_checks.hpp"
 #include "command_registry.hpp"
 
 #include <maskadapt/core/blas_threads.hpp>
 #include <maskadapt/core/checkpoint.hpp>
+#include <maskadapt/mask/parts.hpp>
 #include <maskadapt/train/base_trainer.hpp>
 #include <maskadapt/train/config.hpp>
 #include <maskadapt/train/motion_sources.hpp>
@@ -28,12 +30,17 @@ struct TrainBaseArgs {
   bool no_mask = false;
 };
 
+/// The flags that set a config field, for errors found by BaseTrainConfig::validate().
+const std::vector<std::pair<std::string, std::string>> kFieldFlags = {
+    {"env.num_envs", "--envs"},         {"run.threads", "--threads"},     {"run.iterations", "--iterations"},
+    {"run.minutes", "--minutes"},       {"run.checkpoint_every", "--checkpoint-every"},
+    {"run.out_dir", "--out"},           {"env.motions", "--motions"},     {"mask.lambda_mi", "--lambda-mi"},
+    {"mask.prob", "--mask-prob"},       {"mask.max_parts", "--max-parts"}};
+
 void run_train_base(const TrainBaseArgs& a) {
   using namespace maskadapt;
   using namespace maskadapt::train;
-#ifndef MASKADAPT_HAS_MUJOCO
-  throw Error("this build has no MuJoCo; train-base needs the maskadapt::mujoco target", {{}, std::nullopt, "train-base"});
-#else
+  // The option values were range-checked while parsing (cli_checks.hpp); −1 means "not given".
   BaseTrainConfig cfg = a.preset.empty() ? cpu_preset() : preset(a.preset, "--preset");
   std::unique_ptr<Checkpoint> resume;
   if (!a.resume.empty()) {
@@ -42,20 +49,22 @@ void run_train_base(const TrainBaseArgs& a) {
   }
   if (!a.config.empty()) cfg = load_config(a.config);
   if (!a.motions.empty()) cfg.env.motions = a.motions;
-  if (a.envs > 0) cfg.env.num_envs = a.envs;
+  if (a.envs >= 1) cfg.env.num_envs = a.envs;
   if (a.threads >= 0) cfg.run.threads = a.threads;
   if (a.iterations >= 0) cfg.run.iterations = a.iterations;
-  if (a.minutes >= 0) cfg.run.minutes = a.minutes;
+  if (a.minutes > 0) cfg.run.minutes = a.minutes;
   if (a.minutes > 0 && a.iterations < 0) cfg.run.iterations = 0;  // --minutes alone: time budget only
-  if (a.checkpoint_every > 0) cfg.run.checkpoint_every = a.checkpoint_every;
+  if (a.checkpoint_every >= 1) cfg.run.checkpoint_every = a.checkpoint_every;
   if (a.seed >= 0) cfg.run.seed = static_cast<std::uint64_t>(a.seed);
   if (!a.out.empty()) cfg.run.out_dir = a.out;
   if (a.lambda_mi >= 0) cfg.mask.lambda_mi = a.lambda_mi;
   if (a.mask_prob >= 0) cfg.mask.prob = a.mask_prob;
-  if (a.max_parts > 0) cfg.mask.max_parts = a.max_parts;
+  if (a.max_parts >= 1) cfg.mask.max_parts = a.max_parts;
   if (a.no_mask) cfg.mask.enabled = false;
-  cfg.validate("command line");
-
+  cli::validate_naming_flags([&] { cfg.validate("command line"); }, kFieldFlags);
+#ifndef MASKADAPT_HAS_MUJOCO
+  throw Error("this build has no MuJoCo; train-base needs the maskadapt::mujoco target", {{}, std::nullopt, "train-base"});
+#else
   auto lib = load_motion_library(cfg.env.motions, motion_data_dir(MASKADAPT_SOURCE_DIR "/../shared/data"));
   std::cout << "train-base: " << lib->num_clips() << " clip(s), " << lib->total_duration() << " s of motion; "
             << cfg.env.num_envs << " envs, preset " << cfg.preset << ", masking " << (cfg.mask.enabled ? "on" : "off")
@@ -78,21 +87,27 @@ void run_train_base(const TrainBaseArgs& a) {
 const bool registered = maskadapt::cli::register_command([](CLI::App& app) {
   auto args = std::make_shared<TrainBaseArgs>();
   CLI::App* c = app.add_subcommand("train-base", "Train the mask-invariant AMP base policy (stage 1)");
-  c->add_option("--config", args->config, "JSON config file (see docs/training.md)");
-  c->add_option("--preset", args->preset, "cpu | paper");
+  using namespace maskadapt::cli;
+  CLI::Option* config = c->add_option("--config", args->config, "JSON config file (see docs/training.md)");
+  // the config file (or the resumed checkpoint's config) names its own preset
+  CLI::Option* preset = c->add_option("--preset", args->preset, "cpu | paper")->check(one_of({"cpu", "paper"}))->excludes(config);
   c->add_option("--motions", args->motions, "motion sources: locomotion | synthetic | DIR | FILE ...");
-  c->add_option("--envs", args->envs, "number of parallel envs");
-  c->add_option("--threads", args->threads, "threads for simulation and network passes (0 = all cores)");
-  c->add_option("--iterations", args->iterations, "iteration budget (total, including resumed ones)");
-  c->add_option("--minutes", args->minutes, "wall-clock budget in minutes");
-  c->add_option("--seed", args->seed, "master seed");
+  c->add_option("--envs", args->envs, "number of parallel envs")->transform(integer_in(1, maskadapt::train::kMaxEnvs));
+  c->add_option("--threads", args->threads, "threads for simulation and network passes (0 = all cores)")
+      ->transform(integer_in(0, maskadapt::train::kMaxThreads));
+  c->add_option("--iterations", args->iterations,
+                "iteration budget (total, including resumed ones; 0 = none, then a --minutes budget is needed)")
+      ->transform(non_negative_integer());
+  c->add_option("--minutes", args->minutes, "wall-clock budget in minutes")->check(positive_real());
+  c->add_option("--seed", args->seed, "master seed")->transform(non_negative_integer());
   c->add_option("--out", args->out, "output directory");
-  c->add_option("--lambda-mi", args->lambda_mi, "weight of the mask-invariant loss (0 disables)");
-  c->add_option("--mask-prob", args->mask_prob, "probability of a non-empty mask per step");
-  c->add_option("--max-parts", args->max_parts, "at most K masked parts");
+  c->add_option("--lambda-mi", args->lambda_mi, "weight of the mask-invariant loss (0 disables)")->check(non_negative_real());
+  c->add_option("--mask-prob", args->mask_prob, "probability of a non-empty mask per step")->check(probability());
+  c->add_option("--max-parts", args->max_parts, "at most K masked parts (of the 5 body parts)")
+      ->transform(integer_in(1, maskadapt::kNumParts));
   c->add_flag("--no-mask", args->no_mask, "disable masking (plain AMP baseline)");
-  c->add_option("--resume", args->resume, "continue from a checkpoint");
-  c->add_option("--checkpoint-every", args->checkpoint_every, "checkpoint period in iterations");
+  c->add_option("--resume", args->resume, "continue from a checkpoint")->excludes(preset);
+  c->add_option("--checkpoint-every", args->checkpoint_every, "checkpoint period in iterations")->transform(positive_integer());
   c->callback([args] { run_train_base(*args); });
 });
 

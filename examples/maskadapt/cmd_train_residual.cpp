@@ -3,6 +3,7 @@
 // viewer-rollout export) and `maskadapt eval-residual` (composition H_norm table or tracking
 // metrics, JSON). Residual playback lives here as its own subcommand so the trainer engineer's
 // `play` stays untouched.
+#include "cli_checks.hpp"
 #include "command_registry.hpp"
 
 #include <maskadapt/core/blas_threads.hpp>
@@ -26,6 +27,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <limits>
 #include <memory>
 
 namespace {
@@ -38,11 +40,24 @@ struct Args {
               gain = "scalar";
   std::vector<std::string> new_motion, masks, motions, texts;
   std::string designated = "arms";
+  // Numeric values were range-checked while parsing (cli_checks.hpp); −1 means "not given".
   int envs = -1, threads = -1, goal_trajectories = -1, sample_every = -1;
   long long iterations = -1, seed = -1;
-  double minutes = -1, switch_rate = -1, episode_seconds = -1, term_threshold = -100;
+  double minutes = -1, switch_rate = -1, episode_seconds = -1, term_threshold = -1;
   std::vector<Index> hidden;
+  std::vector<std::string> composition_only, tracking_only;  ///< such flags given on the command line
 };
+
+/// Flags that only one task reads; giving one for the other task is an error, not a no-op.
+const char* const kCompositionFlags[] = {"--new-motion", "--masks", "--switch-rate"};
+const char* const kTrackingFlags[] = {"--designated", "--generator", "--texts", "--goal-trajectories", "--sample-every",
+                                      "--term-threshold"};
+
+/// Throws naming the first flag of `given` (flags of `other_task`) when the run's task is not it.
+[[maybe_unused]] void require_task_flags(const std::vector<std::string>& given, const std::string& task, const std::string& other_task) {
+  require(given.empty(), "applies to --task " + other_task + " only, and this run's task is " + task,
+          {{}, {}, given.empty() ? std::string() : given.front()});
+}
 
 std::string data_dir() { return motion_data_dir(MASKADAPT_SOURCE_DIR "/../shared/data"); }
 
@@ -147,7 +162,7 @@ void run_train_residual(const Args& a) {
     if (a.episode_seconds > 0) c.rl.env.episode_seconds = a.episode_seconds;
     if (a.goal_trajectories > 0) c.goal_trajectories = a.goal_trajectories;
     if (a.sample_every > 0) c.sample_every = a.sample_every;
-    if (a.term_threshold > -100) c.term_threshold = a.term_threshold;
+    if (a.term_threshold >= 0) c.term_threshold = a.term_threshold;
     if (!a.hidden.empty()) c.residual_hidden = a.hidden;
     require(c.method == "scratch" || !a.base.empty(), "a base checkpoint is needed (or --method scratch)", {{}, {}, "--base"});
     if (c.method != "scratch") {
@@ -159,12 +174,18 @@ void run_train_residual(const Args& a) {
       c.rl.env.motions = bc.env.motions;
     }
     if (!a.motions.empty()) c.rl.env.motions = a.motions;
+    require_task_flags(c.task == "tracking" ? a.composition_only : a.tracking_only, c.task,
+                       c.task == "tracking" ? "composition" : "tracking");
   }
   if (a.iterations >= 0) c.rl.run.iterations = a.iterations;
-  if (a.minutes >= 0) c.rl.run.minutes = a.minutes;
+  if (a.minutes > 0) c.rl.run.minutes = a.minutes;
   if (a.minutes > 0 && a.iterations < 0) c.rl.run.iterations = 0;
   c.rl.run.out_dir = a.out;
-  c.validate();
+  cli::validate_naming_flags([&] { c.validate(); },
+                             {{"env.num_envs", "--envs"}, {"run.threads", "--threads"}, {"run.iterations", "--iterations"},
+                              {"run.minutes", "--minutes"}, {"run.out_dir", "--out"}, {"env.motions", "--motions"},
+                              {"env.episode_seconds", "--episode-seconds"}, {"switch_rate", "--switch-rate"},
+                              {"masks", "--masks"}, {"task", "--task"}, {"method", "--method"}});
   require(c.task == "tracking" || !c.new_motions.empty(), "composition needs --new-motion", {{}, {}, "--new-motion"});
 
   auto base_lib = load_motion_library(c.rl.env.motions, data_dir());
@@ -207,6 +228,7 @@ struct PlayArgs {
   std::string checkpoint, mask_schedule = "0:lower_body", text, bvh, rollout, generator;
   double seconds = 10.0;
   long long seed = 1;
+  std::vector<std::string> composition_only, tracking_only;  ///< such flags given on the command line
 };
 
 void run_play(const PlayArgs& a, const std::string& command_line) {
@@ -224,6 +246,7 @@ void run_play(const PlayArgs& a, const std::string& command_line) {
   const Index obs_dim = observation_dim(skel), A = skel.num_dofs();
   const PartMask designated = PartMask::parse(c.designated);
   const bool tracking_task = c.task == "tracking";
+  require_task_flags(tracking_task ? a.composition_only : a.tracking_only, c.task, tracking_task ? "composition" : "tracking");
   // the mask the policy runs with: tracking adapts the designated parts; scratch drives every DoF
   const std::string mask_spec = c.method == "scratch" ? "0:all" : tracking_task ? "0:" + designated.to_string() : a.mask_schedule;
   const auto schedule = MaskSampler::scheduled(mask_spec);
@@ -317,6 +340,7 @@ struct EvalArgs {
   long long frames = 1000, seed = 1;
   double seconds = 5.0, threshold_per_body = 0.1;
   bool stochastic = false;
+  std::vector<std::string> composition_only, tracking_only;  ///< such flags given on the command line
 };
 
 void run_eval(const EvalArgs& a) {
@@ -332,6 +356,8 @@ void run_eval(const EvalArgs& a) {
   }
   const std::string task = a.task.empty() ? c.task : a.task;
   require(task == c.task, "this checkpoint was trained for " + c.task + ", not " + task, {{}, {}, "--task"});
+  require_task_flags(task == "tracking" ? a.composition_only : a.tracking_only, task,
+                     task == "tracking" ? "composition" : "tracking");
   auto base_lib = load_motion_library(a.motions.empty() ? c.rl.env.motions : a.motions, data_dir());
   nlohmann::json j;
   j["checkpoint"] = a.checkpoint;
@@ -409,44 +435,74 @@ void run_eval(const EvalArgs& a) {
 const bool registered = maskadapt::cli::register_command([](CLI::App& app) {
   auto a = std::make_shared<Args>();
   CLI::App* c = app.add_subcommand("train-residual", "Train a residual policy on a frozen base (stage 2)");
-  c->add_option("--task", a->task, "composition | tracking");
-  c->add_option("--method", a->method, "ours | cml | scratch");
-  c->add_option("--base", a->base, "stage-1 checkpoint (train-base output)");
-  c->add_option("--new-motion", a->new_motion, "new motion set B: builtin name | DIR | FILE ...");
-  c->add_option("--motions", a->motions, "base motion set A (default: the preset's env.motions)");
-  c->add_option("--masks", a->masks, "training mask set, e.g. lower_body arms (cml: the first is the fixed region)");
-  c->add_option("--switch-rate", a->switch_rate, "mid-episode mask switches per second");
-  c->add_option("--designated", a->designated, "tracking: parts that follow the generated trajectory");
-  c->add_option("--generator", a->generator, "tracking: generator checkpoint (train-generator output)");
-  c->add_option("--texts", a->texts, "tracking: text pool");
-  c->add_option("--gain", a->gain, "fixed | scalar | per_dof");
-  c->add_option("--hidden", a->hidden, "residual hidden sizes");
-  c->add_option("--preset", a->preset, "cpu | paper");
-  c->add_option("--envs", a->envs, "parallel envs");
-  c->add_option("--threads", a->threads, "threads for simulation and network passes (0 = all cores)");
-  c->add_option("--iterations", a->iterations, "iteration budget");
-  c->add_option("--minutes", a->minutes, "wall-clock budget");
-  c->add_option("--seed", a->seed, "master seed");
+  using namespace maskadapt::cli;
+  const CLI::Validator mask_name = parsed_by([](const std::string& t) { (void)PartMask::parse(t); }, "MASK");
+  const CLI::Validator training_mask =
+      parsed_by([](const std::string& t) { (void)tasks::parse_mask_set({t}); }, "MASK");
+  std::vector<CLI::Option*> fixed_by_resume;  // the run's own config decides these on --resume
+  auto keep = [&](CLI::Option* o) { fixed_by_resume.push_back(o); return o; };
+  keep(c->add_option("--task", a->task, "composition | tracking"))->check(one_of({"composition", "tracking"}));
+  keep(c->add_option("--method", a->method, "ours | cml | scratch"))->check(one_of({"ours", "cml", "scratch"}));
+  keep(c->add_option("--base", a->base, "stage-1 checkpoint (train-base output)"));
+  keep(c->add_option("--new-motion", a->new_motion, "new motion set B: builtin name | DIR | FILE ..."));
+  keep(c->add_option("--motions", a->motions, "base motion set A (default: the preset's env.motions)"));
+  keep(c->add_option("--masks", a->masks, "training mask set, e.g. lower_body arms (cml: the first is the fixed region)"))
+      ->check(training_mask);
+  keep(c->add_option("--switch-rate", a->switch_rate, "mid-episode mask switches per second"))->check(non_negative_real());
+  keep(c->add_option("--designated", a->designated, "tracking: parts that follow the generated trajectory"))
+      ->check(training_mask);
+  keep(c->add_option("--generator", a->generator, "tracking: generator checkpoint (train-generator output)"));
+  keep(c->add_option("--texts", a->texts, "tracking: text pool"));
+  keep(c->add_option("--gain", a->gain, "fixed | scalar | per_dof"))->check(one_of({"fixed", "scalar", "per_dof"}));
+  keep(c->add_option("--hidden", a->hidden, "residual hidden sizes"))->transform(integer_in(1, 16384));
+  CLI::Option* preset = keep(c->add_option("--preset", a->preset, "cpu | paper"))->check(one_of({"cpu", "paper"}));
+  keep(c->add_option("--envs", a->envs, "parallel envs"))->transform(integer_in(1, kMaxEnvs));
+  keep(c->add_option("--threads", a->threads, "threads for simulation and network passes (0 = all cores)"))
+      ->transform(integer_in(0, kMaxThreads));
+  c->add_option("--iterations", a->iterations, "iteration budget (0 = none, then a --minutes budget is needed)")
+      ->transform(non_negative_integer());
+  c->add_option("--minutes", a->minutes, "wall-clock budget in minutes")->check(positive_real());
+  keep(c->add_option("--seed", a->seed, "master seed"))->transform(non_negative_integer());
   c->add_option("--out", a->out, "output directory");
-  c->add_option("--config", a->config, "stage-1-format JSON for the run/env/ppo/disc/net sections (e.g. configs/smoke.json)");
-  c->add_option("--resume", a->resume, "continue a train-residual checkpoint (its own config; budgets and --out may change)");
-  c->add_option("--episode-seconds", a->episode_seconds, "episode length limit (s)");
-  c->add_option("--goal-trajectories", a->goal_trajectories, "tracking: trajectories per goal-buffer refill");
-  c->add_option("--sample-every", a->sample_every, "tracking: refill the goal buffer every N iterations");
-  c->add_option("--term-threshold", a->term_threshold, "tracking: windowed mean tracking reward that ends an episode");
-  c->callback([a] { run_train_residual(*a); });
+  keep(c->add_option("--config", a->config, "stage-1-format JSON for the run/env/ppo/disc/net sections (e.g. configs/smoke.json)"))
+      ->excludes(preset);  // the file names its own preset
+  CLI::Option* resume =
+      c->add_option("--resume", a->resume, "continue a train-residual checkpoint (its own config; budgets and --out may change)");
+  keep(c->add_option("--episode-seconds", a->episode_seconds, "episode length limit (s)"))
+      ->check(positive_real(kMaxEpisodeSeconds));
+  keep(c->add_option("--goal-trajectories", a->goal_trajectories, "tracking: trajectories per goal-buffer refill"))
+      ->transform(positive_integer(std::numeric_limits<int>::max()));
+  keep(c->add_option("--sample-every", a->sample_every, "tracking: refill the goal buffer every N iterations"))
+      ->transform(positive_integer(std::numeric_limits<int>::max()));
+  keep(c->add_option("--term-threshold", a->term_threshold,
+                     "tracking: windowed mean tracking reward (in (0, 1]) below which an episode ends; 0 = never"))
+      ->check(probability());
+  for (CLI::Option* o : fixed_by_resume) resume->excludes(o);
+  c->callback([a, c] {
+    for (const char* f : kCompositionFlags)
+      if (c->count(f) > 0) a->composition_only.push_back(f);
+    for (const char* f : kTrackingFlags)
+      if (c->count(f) > 0) a->tracking_only.push_back(f);
+    run_train_residual(*a);
+  });
 
   auto p = std::make_shared<PlayArgs>();
   CLI::App* q = app.add_subcommand("play-residual", "Run a residual checkpoint with a mask or text schedule, export BVH");
   q->add_option("checkpoint", p->checkpoint, "train-residual checkpoint")->required();
-  q->add_option("--mask-schedule", p->mask_schedule, "e.g. \"0:lower_body,5:upper_body\"");
-  q->add_option("--text", p->text, "tracking: e.g. \"0:wave hands,5:raise arms\"");
+  q->add_option("--mask-schedule", p->mask_schedule, "e.g. \"0:lower_body,5:upper_body\"")
+      ->check(parsed_by([](const std::string& t) { (void)MaskSampler::scheduled(parse_mask_schedule(t, "--mask-schedule")); },
+                        "SCHEDULE"));
+  q->add_option("--text", p->text, "tracking: e.g. \"0:wave hands,5:raise arms\"")
+      ->check(parsed_by([](const std::string& t) { (void)tracking::parse_text_schedule(t); }, "SCHEDULE"));
   q->add_option("--generator", p->generator, "tracking: generator checkpoint (default: the one trained with)");
-  q->add_option("--seconds", p->seconds, "length");
+  q->add_option("--seconds", p->seconds, "length (s)")->check(positive_real(kMaxEpisodeSeconds));
   q->add_option("--bvh", p->bvh, "write the motion as BVH");
   q->add_option("--rollout", p->rollout, "write the viewer rollout JSON (masks, contacts, texts, goals)");
-  q->add_option("--seed", p->seed, "seed");
-  q->callback([p] {
+  q->add_option("--seed", p->seed, "seed")->transform(non_negative_integer());
+  q->callback([p, q] {
+    if (q->count("--mask-schedule") > 0) p->composition_only.push_back("--mask-schedule");
+    for (const char* f : {"--text", "--generator"})
+      if (q->count(f) > 0) p->tracking_only.push_back(f);
     std::string cmd = "maskadapt play-residual " + p->checkpoint + " --seconds " + std::to_string(p->seconds) +
                       " --seed " + std::to_string(p->seed);
     if (!p->text.empty()) cmd += " --text \"" + p->text + "\"";
@@ -457,22 +513,33 @@ const bool registered = maskadapt::cli::register_command([](CLI::App& app) {
   auto e = std::make_shared<EvalArgs>();
   CLI::App* v = app.add_subcommand("eval-residual", "Evaluate a residual checkpoint: composition H_norm or tracking metrics");
   v->add_option("checkpoint", e->checkpoint, "train-residual checkpoint")->required();
-  v->add_option("--task", e->task, "composition | tracking (default: the checkpoint's)");
-  v->add_option("--mask", e->mask, "composition: evaluate this adapted mask (default: each training mask)");
+  v->add_option("--task", e->task, "composition | tracking (default: the checkpoint's)")
+      ->check(one_of({"composition", "tracking"}));
+  v->add_option("--mask", e->mask, "composition: evaluate this adapted mask (default: each training mask)")
+      ->check(mask_name);
   v->add_option("--new-motion", e->new_motion, "composition: new motion set B (default: the training set)");
   v->add_option("--motions", e->motions, "base motion set A / reference walk (default: the training set)");
-  v->add_option("--envs", e->envs, "composition: envs (default 10)");
-  v->add_option("--frames", e->frames, "composition: frames per env (default 1000)");
-  v->add_option("--threshold", e->threshold_per_body, "composition: visitation threshold per body (m, default 0.1)");
+  v->add_option("--envs", e->envs, "composition: envs (default 10)")->transform(integer_in(1, kMaxEnvs));
+  v->add_option("--frames", e->frames, "composition: frames per env (default 1000)")->transform(positive_integer());
+  v->add_option("--threshold", e->threshold_per_body, "composition: visitation threshold per body (m, default 0.1)")
+      ->check(positive_real());
   v->add_option("--prompts", e->prompts, "tracking: prompts (default: the arms text pool)");
-  v->add_option("--num-prompts", e->num_prompts, "tracking: at most this many prompts (default 10)");
-  v->add_option("--seconds", e->seconds, "tracking: seconds per episode (default 5)");
-  v->add_option("--repeats", e->repeats, "tracking: repeats per prompt (default 3)");
+  v->add_option("--num-prompts", e->num_prompts, "tracking: at most this many prompts (default 10)")
+      ->transform(positive_integer(std::numeric_limits<int>::max()));
+  v->add_option("--seconds", e->seconds, "tracking: seconds per episode (default 5)")->check(positive_real(kMaxEpisodeSeconds));
+  v->add_option("--repeats", e->repeats, "tracking: repeats per prompt (default 3; one env each)")
+      ->transform(integer_in(1, kMaxEnvs));
   v->add_option("--generator", e->generator, "tracking: generator checkpoint (default: the one trained with)");
   v->add_flag("--stochastic", e->stochastic, "sample actions instead of the policy mean");
-  v->add_option("--seed", e->seed, "seed");
+  v->add_option("--seed", e->seed, "seed")->transform(non_negative_integer());
   v->add_option("--out", e->out, "write the results as JSON");
-  v->callback([e] { run_eval(*e); });
+  v->callback([e, v] {
+    for (const char* f : {"--mask", "--new-motion", "--envs", "--frames", "--threshold"})
+      if (v->count(f) > 0) e->composition_only.push_back(f);
+    for (const char* f : {"--prompts", "--num-prompts", "--seconds", "--repeats", "--generator"})
+      if (v->count(f) > 0) e->tracking_only.push_back(f);
+    run_eval(*e);
+  });
 });
 
 }  // namespace

@@ -97,11 +97,9 @@ void expect_bit_identical(const Checkpoint& a, const Checkpoint& b) {
   }
 }
 
-}  // namespace
-
-TEST(BaseTrainer, ResumeIsBitExact) {
-  MASKADAPT_REQUIRE_REQUESTED_BLAS_CORE();
-  const auto cfg = tiny_config();
+// 2 iterations, checkpoint, a fresh trainer (other seed) loads it and runs 2 more: everything
+// equals 4 straight iterations, bit for bit, and training really changed the parameters.
+void expect_resume_is_bit_exact(const BaseTrainConfig& cfg) {
   TinyRun straight(cfg);
   for (int i = 0; i < 4; ++i) straight.trainer.iterate();
 
@@ -129,6 +127,30 @@ TEST(BaseTrainer, ResumeIsBitExact) {
   TinyRun fresh(cfg);
   EXPECT_NE(snapshot(fresh.trainer).get_vector<float>("actor/params"), a.get_vector<float>("actor/params"));
   std::filesystem::remove(path);
+}
+
+}  // namespace
+
+TEST(BaseTrainer, ResumeIsBitExact) {
+  MASKADAPT_REQUIRE_REQUESTED_BLAS_CORE();
+  expect_resume_is_bit_exact(tiny_config());
+}
+
+// ppo.actor_lr_schedule = adaptive: the rate follows the minibatch KL (here it must move: the
+// tiny problem's steps are far from the 0.01 target), is logged, and is part of the resumed state.
+TEST(BaseTrainer, AdaptiveLearningRateMovesAndResumesBitExactly) {
+  MASKADAPT_REQUIRE_REQUESTED_BLAS_CORE();
+  auto cfg = tiny_config();
+  cfg.ppo.actor_lr_schedule = "adaptive";
+  TinyRun run(cfg);
+  const IterationStats st = run.trainer.iterate();
+  EXPECT_NE(st.actor_lr, cfg.ppo.actor_lr);
+  EXPECT_GE(st.actor_lr, cfg.ppo.adaptive_lr.min_lr);
+  EXPECT_LE(st.actor_lr, cfg.ppo.adaptive_lr.max_lr);
+  EXPECT_EQ(snapshot(run.trainer).get_double("actor/lr"), st.actor_lr);
+  TinyRun fixed(tiny_config());
+  EXPECT_EQ(fixed.trainer.iterate().actor_lr, tiny_config().ppo.actor_lr);
+  expect_resume_is_bit_exact(cfg);
 }
 
 TEST(BaseTrainer, IterationStatisticsAreFiniteAndConsistent) {

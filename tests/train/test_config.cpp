@@ -57,9 +57,15 @@ TEST(TrainConfig, JsonRoundTripPreservesEveryField) {
   c.net.activation = "elu";
   c.ppo.minibatch_size = 77;
   c.disc.lsgan = true;
+  c.ppo.actor_lr_schedule = "adaptive";
+  c.ppo.adaptive_lr.desired_kl = 0.02;
+  c.ppo.adaptive_lr.max_lr = 3e-3;
   const auto j = to_json(c);
   const auto back = config_from_json(j);
   EXPECT_EQ(to_json(back), j);
+  EXPECT_EQ(back.ppo.actor_lr_schedule, "adaptive");
+  EXPECT_EQ(back.ppo.adaptive_lr.desired_kl, 0.02);
+  EXPECT_EQ(back.ppo.adaptive_lr.max_lr, 3e-3);
   EXPECT_EQ(back.run.seed, c.run.seed);
   EXPECT_EQ(back.env.motions, c.env.motions);
   EXPECT_FALSE(back.mask.enabled);

@@ -27,6 +27,7 @@
 #include <maskadapt/nn/mlp.hpp>
 #include <maskadapt/nn/normalizer.hpp>
 #include <maskadapt/rl/actor_critic.hpp>
+#include <maskadapt/rl/adaptive_lr.hpp>
 #include <maskadapt/rl/amp_loss.hpp>
 #include <maskadapt/rl/discriminator.hpp>
 #include <maskadapt/rl/gae.hpp>
@@ -143,6 +144,7 @@ class BaseTrainer {
     c.put("critic/adam", policy_.ac.critic.net.block().storage());
     c.put("disc/adam", policy_.disc.net().block().storage());
     c.put_int("actor/adam_steps", actor_opt_.step_count());
+    c.put_double("actor/lr", actor_opt_.config().lr);  // moves under ppo.actor_lr_schedule = adaptive
     c.put_int("critic/adam_steps", critic_opt_.step_count());
     // rl::Discriminator exposes its optimiser only mutably; reading the step count changes nothing
     c.put_int("disc/adam_steps", const_cast<rl::Discriminator<float>&>(policy_.disc).optimizer().step_count());
@@ -170,6 +172,11 @@ class BaseTrainer {
     c.copy_to<float>("critic/adam", policy_.ac.critic.net.block().storage());
     c.copy_to<float>("disc/adam", policy_.disc.net().block().storage());
     actor_opt_.set_step_count(c.get_int("actor/adam_steps"));
+    if (c.contains("actor/lr")) {  // (checkpoints before the adaptive schedule: the config's rate)
+      const double lr = c.get_double("actor/lr");
+      require(std::isfinite(lr) && lr >= 0, "actor learning rate must be finite and >= 0", {c.source(), std::nullopt, "actor/lr"});
+      actor_opt_.config().lr = lr;
+    }
     critic_opt_.set_step_count(c.get_int("critic/adam_steps"));
     policy_.disc.optimizer().set_step_count(c.get_int("disc/adam_steps"));
     replay_.restore(c.get_matrix<float>("replay/storage", task_.amp_dim(), cfg_.disc.replay_size),
@@ -279,6 +286,8 @@ class BaseTrainer {
         if (actor.learn_log_std && dls.size()) actor.log_std.grads() += dls.col(0);
         const auto ar = actor_opt_.step(actor.trainable_blocks());
         if (!ar.applied) ++st.skipped_updates;
+        if (cfg_.ppo.actor_lr_schedule == "adaptive")  // next minibatch's step sized by this one's KL
+          actor_opt_.config().lr = rl::adapt_learning_rate(actor_opt_.config().lr, sur.approx_kl, cfg_.ppo.adaptive_lr);
         // critic
         critic.net.zero_grad();
         critic.normalize(obs, norm_obs);
@@ -304,6 +313,7 @@ class BaseTrainer {
     st.mi_kl = sum_mi / count;
     st.grad_norm = sum_gn / count;
     st.entropy = nn::gaussian_entropy<float>(actor.log_std_col())(0);
+    st.actor_lr = actor_opt_.config().lr;
   }
 
   // ---- 5. discriminator -------------------------------------------------------------------

@@ -17,17 +17,26 @@
 /// Everything else equals the paper preset. docs/training.md explains every field.
 #include <maskadapt/core/error.hpp>
 #include <maskadapt/core/types.hpp>
+#include <maskadapt/rl/adaptive_lr.hpp>
 #include <maskadapt/train/json_fields.hpp>
 
 #include <nlohmann/json.hpp>
 
+#include <cmath>
 #include <cstdint>
 #include <fstream>
 #include <sstream>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace maskadapt::train {
+
+/// Limits shared by validate() and the command-line flags (examples/maskadapt/cli_checks.hpp):
+/// beyond them a run would only exhaust memory or threads instead of reporting an error.
+inline constexpr int kMaxEnvs = 65536;               ///< env.num_envs ∈ [1, kMaxEnvs] (the paper uses 4096)
+inline constexpr int kMaxThreads = 1024;             ///< run.threads ∈ [0, kMaxThreads] (0 = all cores)
+inline constexpr double kMaxEpisodeSeconds = 3600;   ///< env.episode_seconds ∈ (0, kMaxEpisodeSeconds]
 
 /// Run control: budget, seed, output.
 struct RunConfig {
@@ -88,6 +97,10 @@ struct PpoConfig {
   double critic_lr = 1e-4;
   double max_grad_norm = 1.0;
   double action_bound_weight = 10.0;  ///< penalty on |μ| beyond ±π (keeps means in a sane range)
+  /// `fixed`: actor_lr throughout; `adaptive`: actor_lr is the starting rate, then after every
+  /// minibatch it follows PPO's approx-KL against adaptive_lr.desired_kl (rl/adaptive_lr.hpp).
+  std::string actor_lr_schedule = "fixed";
+  rl::AdaptiveKlSchedule adaptive_lr;  ///< target KL 0.01, factor 1.5, rate in [1e-6, 1e-2] (rsl_rl)
 };
 
 /// AMP discriminator.
@@ -118,17 +131,44 @@ struct BaseTrainConfig {
       if (!ok) throw Error(msg, {file, std::nullopt, field});
     };
     check(preset == "cpu" || preset == "paper" || preset == "custom", "preset", "expected cpu, paper or custom");
+    // Every real-valued field must be finite (a JSON literal such as 1e999 reads as +inf).
+    const std::pair<const char*, double> reals[] = {
+        {"run.minutes", run.minutes},
+        {"env.episode_seconds", env.episode_seconds},
+        {"env.termination_height", env.termination_height},
+        {"mask.prob", mask.prob},
+        {"mask.lambda_mi", mask.lambda_mi},
+        {"net.init_log_std", net.init_log_std},
+        {"ppo.gamma", ppo.gamma},
+        {"ppo.gae_lambda", ppo.gae_lambda},
+        {"ppo.clip", ppo.clip},
+        {"ppo.critic_weight", ppo.critic_weight},
+        {"ppo.entropy_weight", ppo.entropy_weight},
+        {"ppo.actor_lr", ppo.actor_lr},
+        {"ppo.critic_lr", ppo.critic_lr},
+        {"ppo.max_grad_norm", ppo.max_grad_norm},
+        {"ppo.action_bound_weight", ppo.action_bound_weight},
+        {"ppo.adaptive_lr.desired_kl", ppo.adaptive_lr.desired_kl},
+        {"ppo.adaptive_lr.factor", ppo.adaptive_lr.factor},
+        {"ppo.adaptive_lr.min_lr", ppo.adaptive_lr.min_lr},
+        {"ppo.adaptive_lr.max_lr", ppo.adaptive_lr.max_lr},
+        {"disc.lr", disc.lr},
+        {"disc.gradient_penalty", disc.gradient_penalty},
+        {"disc.logit_reg", disc.logit_reg},
+        {"disc.weight_decay", disc.weight_decay},
+        {"disc.reward_scale", disc.reward_scale}};
+    for (const auto& [field, v] : reals) check(std::isfinite(v), field, "must be a finite number");
     check(run.iterations >= 0, "run.iterations", "must be ≥ 0");
     check(run.minutes >= 0, "run.minutes", "must be ≥ 0");
     check(run.iterations > 0 || run.minutes > 0, "run.iterations", "need an iteration or a minute budget");
     check(run.checkpoint_every >= 1, "run.checkpoint_every", "must be ≥ 1");
     check(!run.out_dir.empty(), "run.out_dir", "must not be empty");
-    check(run.threads >= 0, "run.threads", "must be ≥ 0");
-    check(env.num_envs >= 1, "env.num_envs", "must be ≥ 1");
+    check(run.threads >= 0 && run.threads <= kMaxThreads, "run.threads", "must be in [0, " + std::to_string(kMaxThreads) + "] (0 = all cores)");
+    check(env.num_envs >= 1 && env.num_envs <= kMaxEnvs, "env.num_envs", "must be in [1, " + std::to_string(kMaxEnvs) + "]");
     check(!env.motions.empty(), "env.motions", "must name at least one motion set, directory or file");
-    check(env.episode_seconds > 0, "env.episode_seconds", "must be > 0");
+    check(env.episode_seconds > 0 && env.episode_seconds <= kMaxEpisodeSeconds, "env.episode_seconds", "must be in (0, 3600]");
     check(mask.prob >= 0 && mask.prob <= 1, "mask.prob", "must be in [0, 1]");
-    check(mask.max_parts >= 1 && mask.max_parts <= 5, "mask.max_parts", "must be in [1, 5]");
+    check(mask.max_parts >= 1 && mask.max_parts <= 5, "mask.max_parts", "must be in [1, 5] (there are 5 body parts)");
     check(mask.lambda_mi >= 0, "mask.lambda_mi", "must be ≥ 0");
     check(mask.mi_gradient == "both" || mask.mi_gradient == "target_stopped", "mask.mi_gradient",
           "must be \"both\" or \"target_stopped\"");
@@ -145,6 +185,12 @@ struct BaseTrainConfig {
     check(ppo.actor_lr >= 0, "ppo.actor_lr", "must be ≥ 0");
     check(ppo.critic_lr >= 0, "ppo.critic_lr", "must be ≥ 0");
     check(ppo.max_grad_norm > 0, "ppo.max_grad_norm", "must be > 0");
+    check(ppo.actor_lr_schedule == "fixed" || ppo.actor_lr_schedule == "adaptive", "ppo.actor_lr_schedule",
+          "expected fixed or adaptive");
+    check(ppo.adaptive_lr.desired_kl > 0, "ppo.adaptive_lr.desired_kl", "must be > 0");
+    check(ppo.adaptive_lr.factor > 1, "ppo.adaptive_lr.factor", "must be > 1");
+    check(ppo.adaptive_lr.min_lr > 0, "ppo.adaptive_lr.min_lr", "must be > 0");
+    check(ppo.adaptive_lr.max_lr >= ppo.adaptive_lr.min_lr, "ppo.adaptive_lr.max_lr", "must be ≥ ppo.adaptive_lr.min_lr");
     check(disc.lr >= 0, "disc.lr", "must be ≥ 0");
     check(disc.gradient_penalty >= 0, "disc.gradient_penalty", "must be ≥ 0");
     check(disc.replay_size >= 1, "disc.replay_size", "must be ≥ 1");
@@ -213,7 +259,12 @@ inline nlohmann::json to_json(const BaseTrainConfig& c) {
               {"actor_lr", c.ppo.actor_lr},
               {"critic_lr", c.ppo.critic_lr},
               {"max_grad_norm", c.ppo.max_grad_norm},
-              {"action_bound_weight", c.ppo.action_bound_weight}};
+              {"action_bound_weight", c.ppo.action_bound_weight},
+              {"actor_lr_schedule", c.ppo.actor_lr_schedule},
+              {"adaptive_lr", {{"desired_kl", c.ppo.adaptive_lr.desired_kl},
+                               {"factor", c.ppo.adaptive_lr.factor},
+                               {"min_lr", c.ppo.adaptive_lr.min_lr},
+                               {"max_lr", c.ppo.adaptive_lr.max_lr}}}};
   j["disc"] = {{"lr", c.disc.lr},
                {"gradient_penalty", c.disc.gradient_penalty},
                {"logit_reg", c.disc.logit_reg},
@@ -296,6 +347,15 @@ inline BaseTrainConfig config_from_json(const nlohmann::json& j, const std::stri
     r.get("critic_lr", c.ppo.critic_lr);
     r.get("max_grad_norm", c.ppo.max_grad_norm);
     r.get("action_bound_weight", c.ppo.action_bound_weight);
+    r.get("actor_lr_schedule", c.ppo.actor_lr_schedule);
+    {
+      auto a = r.child("adaptive_lr");
+      a.get("desired_kl", c.ppo.adaptive_lr.desired_kl);
+      a.get("factor", c.ppo.adaptive_lr.factor);
+      a.get("min_lr", c.ppo.adaptive_lr.min_lr);
+      a.get("max_lr", c.ppo.adaptive_lr.max_lr);
+      a.finish();
+    }
     r.finish();
   }
   {
@@ -326,6 +386,8 @@ inline BaseTrainConfig config_from_string(const std::string& text, const std::st
     long long line = 1;
     for (std::size_t i = 0; i < text.size() && i + 1 < e.byte; ++i) line += text[i] == '\n';
     throw Error(std::string("invalid JSON: ") + e.what(), {file, line, {}});
+  } catch (const nlohmann::json::out_of_range& e) {  // e.g. a number that overflows a double: 1e999
+    throw Error(std::string("invalid JSON: ") + e.what(), {file, std::nullopt, {}});
   }
   return config_from_json(j, file);
 }

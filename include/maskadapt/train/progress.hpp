@@ -51,6 +51,7 @@ struct IterationStats {
   double approx_kl = 0;
   double clip_frac = 0;
   double grad_norm = 0;
+  double actor_lr = 0;            ///< the actor's learning rate at the end of the iteration (moves when adaptive)
   double mask_fraction = 0;       ///< fraction of collected steps with a non-empty mask
   double time_sim = 0;
   double time_inference = 0;
@@ -102,6 +103,7 @@ inline nlohmann::json to_json(const IterationStats& s) {
           {"approx_kl", num(s.approx_kl)},
           {"clip_frac", num(s.clip_frac)},
           {"grad_norm", num(s.grad_norm)},
+          {"actor_lr", num(s.actor_lr)},
           {"mask_fraction", num(s.mask_fraction)},
           {"time_sim", num(s.time_sim)},
           {"time_inference", num(s.time_inference)},

@@ -756,6 +756,7 @@ class ResidualTrainer {
     st.grad_norm = sum_gn / count;
     st.entropy = nn::gaussian_entropy<float>(Eigen::Map<const MatrixXf>(policy_.residual().log_std.params().data(),
                                                                          policy_.action_dim(), 1))(0);
+    st.actor_lr = actor_opt_.config().lr;  // (stage 2 keeps the configured rate: no adaptive schedule yet)
   }
 
   // ---- 4. discriminators ------------------------------------------------------------------
