@@ -42,47 +42,53 @@ Eigen::MatrixXf random_input(Index rows, Index cols) {
 
 // ---- machine peers ------------------------------------------------------------------------------
 
-/// FMA throughput: 12 independent 256-bit FMA chains (enough to cover latency × 2 pipes).
-void BM_FmaPeak(benchmark::State& state) {
+/// FMA throughput: 12 independent FMA chains (enough to cover latency × 2 pipes) of the vector
+/// width of `Isa`.
+template <class Isa>
+void fma_peak(benchmark::State& state) {
+  using V = typename Isa::V;
   const long iters = 1 << 20;
   for (auto _ : state) {
-    __m256 acc[12];
-    for (int k = 0; k < 12; ++k) acc[k] = _mm256_set1_ps(0.001f * k);
-    const __m256 a = _mm256_set1_ps(0.999f), b = _mm256_set1_ps(0.0001f);
+    V acc[12];
+    for (int k = 0; k < 12; ++k) acc[k] = Isa::set1(0.001f * k);
+    const V a = Isa::set1(0.999f), b = Isa::set1(0.0001f);
     for (long i = 0; i < iters; ++i) {
 #pragma GCC unroll 12
-      for (int k = 0; k < 12; ++k) acc[k] = _mm256_fmadd_ps(acc[k], a, b);
+      for (int k = 0; k < 12; ++k) acc[k] = Isa::fma(acc[k], a, b);
     }
-    __m256 s = acc[0];
-    for (int k = 1; k < 12; ++k) s = _mm256_add_ps(s, acc[k]);
+    V s = acc[0];
+    for (int k = 1; k < 12; ++k) s = Isa::add(s, acc[k]);
     benchmark::DoNotOptimize(s);
   }
-  state.counters["FLOPS"] = benchmark::Counter(double(iters) * 12 * 8 * 2 * double(state.iterations()),
+  state.counters["FLOPS"] = benchmark::Counter(double(iters) * 12 * Isa::kLanes * 2 * double(state.iterations()),
                                                benchmark::Counter::kIsRate);
 }
+
+struct Avx2Fma {
+  using V = __m256;
+  static constexpr int kLanes = 8;
+  static V set1(float x) { return _mm256_set1_ps(x); }
+  static V fma(V a, V b, V c) { return _mm256_fmadd_ps(a, b, c); }
+  static V add(V a, V b) { return _mm256_add_ps(a, b); }
+};
+
+/// 256-bit FMAs: what OpenBLAS's Haswell/Zen kernels use.
+void BM_FmaPeak(benchmark::State& state) { fma_peak<Avx2Fma>(state); }
 BENCHMARK(BM_FmaPeak)->Threads(1)->Threads(2)->UseRealTime();
 
 #ifdef __AVX512F__
-/// The same with 512-bit FMAs: OpenBLAS's SkylakeX/Cooperlake kernels use them. On CPUs with two
-/// 512-bit FMA pipes (server Intel) this peak is twice the 256-bit one; on Zen 4 (double-pumped)
-/// it is the same. Compare an AVX-512 kernel's GEMM against this row, an AVX2 one against the other.
-void BM_FmaPeak512(benchmark::State& state) {
-  const long iters = 1 << 20;
-  for (auto _ : state) {
-    __m512 acc[12];
-    for (int k = 0; k < 12; ++k) acc[k] = _mm512_set1_ps(0.001f * k);
-    const __m512 a = _mm512_set1_ps(0.999f), b = _mm512_set1_ps(0.0001f);
-    for (long i = 0; i < iters; ++i) {
-#pragma GCC unroll 12
-      for (int k = 0; k < 12; ++k) acc[k] = _mm512_fmadd_ps(acc[k], a, b);
-    }
-    __m512 s = acc[0];
-    for (int k = 1; k < 12; ++k) s = _mm512_add_ps(s, acc[k]);
-    benchmark::DoNotOptimize(s);
-  }
-  state.counters["FLOPS"] = benchmark::Counter(double(iters) * 12 * 16 * 2 * double(state.iterations()),
-                                               benchmark::Counter::kIsRate);
-}
+struct Avx512Fma {
+  using V = __m512;
+  static constexpr int kLanes = 16;
+  static V set1(float x) { return _mm512_set1_ps(x); }
+  static V fma(V a, V b, V c) { return _mm512_fmadd_ps(a, b, c); }
+  static V add(V a, V b) { return _mm512_add_ps(a, b); }
+};
+
+/// 512-bit FMAs: OpenBLAS's SkylakeX/Cooperlake kernels use them. On CPUs with two 512-bit FMA
+/// pipes (server Intel) this peak is twice the 256-bit one; on Zen 4 (double-pumped) it is the
+/// same. Compare an AVX-512 kernel's GEMM against this row, an AVX2 one against the other.
+void BM_FmaPeak512(benchmark::State& state) { fma_peak<Avx512Fma>(state); }
 BENCHMARK(BM_FmaPeak512)->Threads(1)->Threads(2)->UseRealTime();
 #endif
 

@@ -28,6 +28,7 @@ struct TrainBaseArgs {
   int max_parts = -1;
   long long seed = -1;
   bool no_mask = false;
+  std::string action_offset, action_scale, actor_lr_schedule;
 };
 
 /// The flags that set a config field, for errors found by BaseTrainConfig::validate().
@@ -35,7 +36,9 @@ const std::vector<std::pair<std::string, std::string>> kFieldFlags = {
     {"env.num_envs", "--envs"},         {"run.threads", "--threads"},     {"run.iterations", "--iterations"},
     {"run.minutes", "--minutes"},       {"run.checkpoint_every", "--checkpoint-every"},
     {"run.out_dir", "--out"},           {"env.motions", "--motions"},     {"mask.lambda_mi", "--lambda-mi"},
-    {"mask.prob", "--mask-prob"},       {"mask.max_parts", "--max-parts"}};
+    {"mask.prob", "--mask-prob"},       {"mask.max_parts", "--max-parts"},
+    {"net.action_offset", "--action-offset"}, {"net.action_scale", "--action-scale"},
+    {"ppo.actor_lr_schedule", "--actor-lr-schedule"}};
 
 void run_train_base(const TrainBaseArgs& a) {
   using namespace maskadapt;
@@ -61,6 +64,9 @@ void run_train_base(const TrainBaseArgs& a) {
   if (a.mask_prob >= 0) cfg.mask.prob = a.mask_prob;
   if (a.max_parts >= 1) cfg.mask.max_parts = a.max_parts;
   if (a.no_mask) cfg.mask.enabled = false;
+  if (!a.action_offset.empty()) cfg.net.action_offset = a.action_offset;
+  if (!a.action_scale.empty()) cfg.net.action_scale = a.action_scale;
+  if (!a.actor_lr_schedule.empty()) cfg.ppo.actor_lr_schedule = a.actor_lr_schedule;
   cli::validate_naming_flags([&] { cfg.validate("command line"); }, kFieldFlags);
 #ifndef MASKADAPT_HAS_MUJOCO
   throw Error("this build has no MuJoCo; train-base needs the maskadapt::mujoco target", {{}, std::nullopt, "train-base"});
@@ -72,6 +78,7 @@ void run_train_base(const TrainBaseArgs& a) {
             << "\n";
   ThreadPool pool(static_cast<std::size_t>(cfg.run.threads));
   MujocoHumanoidSim sim(static_cast<std::size_t>(cfg.env.num_envs), pool);
+  resolve_action_space(cfg, sim.skeleton(), lib.get());  // a resumed run's config holds them already
   BaseTrainer<MujocoHumanoidSim> trainer(sim, library_reset_sampler(lib), library_window_sampler(lib), cfg, &pool);
   if (resume) {
     trainer.load(*resume);
@@ -106,7 +113,14 @@ const bool registered = maskadapt::cli::register_command([](CLI::App& app) {
   c->add_option("--max-parts", args->max_parts, "at most K masked parts (of the 5 body parts)")
       ->transform(integer_in(1, maskadapt::kNumParts));
   c->add_flag("--no-mask", args->no_mask, "disable masking (plain AMP baseline)");
-  c->add_option("--resume", args->resume, "continue from a checkpoint")->excludes(preset);
+  CLI::Option* offset = c->add_option("--action-offset", args->action_offset,
+                                      "PD target of the zero action: zero | mean_pose (of the motions) | mid_range (of the joint limits)")
+                            ->check(one_of({"zero", "mean_pose", "mid_range"}));
+  CLI::Option* scale = c->add_option("--action-scale", args->action_scale, "radians per unit action: one | half_range (of the joint limits)")
+                           ->check(one_of({"one", "half_range"}));
+  c->add_option("--actor-lr-schedule", args->actor_lr_schedule, "fixed | adaptive (the actor's rate follows PPO's KL, docs/training.md)")
+      ->check(one_of({"fixed", "adaptive"}));
+  c->add_option("--resume", args->resume, "continue from a checkpoint")->excludes(preset)->excludes(offset)->excludes(scale);
   c->add_option("--checkpoint-every", args->checkpoint_every, "checkpoint period in iterations")->transform(positive_integer());
   c->callback([args] { run_train_base(*args); });
 });

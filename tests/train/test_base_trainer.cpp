@@ -3,6 +3,7 @@
 #include "tiny_sim.hpp"
 
 #include <maskadapt/train/base_trainer.hpp>
+#include <maskadapt/train/residual_trainer.hpp>
 
 #include <gtest/gtest.h>
 #include "../blas_kernel.hpp"
@@ -150,6 +151,44 @@ TEST(BaseTrainer, AdaptiveLearningRateMovesAndResumesBitExactly) {
   EXPECT_EQ(snapshot(run.trainer).get_double("actor/lr"), st.actor_lr);
   TinyRun fixed(tiny_config());
   EXPECT_EQ(fixed.trainer.iterate().actor_lr, tiny_config().ppo.actor_lr);
+  expect_resume_is_bit_exact(cfg);
+}
+
+// Normalised actions (net.action_offset mid_range, net.action_scale half_range): resolved from
+// the skeleton's limits in closed form, saved with the policy, restored by load_policy, and a
+// resume stays bit-exact. Stage 2 refuses such a base with a message naming the section.
+TEST(BaseTrainer, NormalisedActionsAreResolvedSavedAndResumed) {
+  MASKADAPT_REQUIRE_REQUESTED_BLAS_CORE();
+  auto cfg = tiny_config();
+  cfg.net.action_offset = "mid_range";
+  cfg.net.action_scale = "half_range";
+  const Skeleton skel = TinyWalkerSim(1).skeleton();
+  EXPECT_THROW(action_space_of(cfg, skel.num_dofs()), Error);  // not resolved yet
+  resolve_action_space(cfg, skel, nullptr);
+  ASSERT_EQ(static_cast<Index>(cfg.net.action_offset_rad.size()), skel.num_dofs());
+  for (int b = 1; b < skel.num_bodies(); ++b)
+    for (int k = 0; k < 3; ++k) {
+      const auto i = static_cast<std::size_t>(Skeleton::dof_offset(b) + k);
+      EXPECT_DOUBLE_EQ(cfg.net.action_offset_rad[i], 0.5 * (skel.joint_lower(k, b) + skel.joint_upper(k, b)));
+      EXPECT_DOUBLE_EQ(cfg.net.action_scale_rad[i], std::max(0.05, 0.5 * (skel.joint_upper(k, b) - skel.joint_lower(k, b))));
+    }
+  const auto again = cfg;
+  resolve_action_space(cfg, skel, nullptr);  // resolved vectors are kept (a resumed run)
+  EXPECT_EQ(cfg.net.action_offset_rad, again.net.action_offset_rad);
+  auto mean_pose = tiny_config();
+  mean_pose.net.action_offset = "mean_pose";
+  EXPECT_THROW(resolve_action_space(mean_pose, skel, nullptr), Error);  // needs the motions
+
+  TinyRun run(cfg);
+  run.trainer.iterate();
+  const Checkpoint c = snapshot(run.trainer);
+  ASSERT_TRUE(c.contains("actor/action_offset"));
+  Rng init(1);
+  BasePolicy loaded = make_base_policy(cfg, run.trainer.dims(), init);
+  load_policy(c, loaded);
+  EXPECT_TRUE(loaded.actions.offset == run.trainer.policy().actions.offset);
+  EXPECT_TRUE(loaded.actions.scale == run.trainer.policy().actions.scale);
+  EXPECT_THROW(load_base_actor(c, observation_dim(skel), skel.num_dofs()), Error);  // stage 2 refuses it
   expect_resume_is_bit_exact(cfg);
 }
 

@@ -205,3 +205,33 @@ TEST(ImitationTask, SavedStateContinuesBitExactly) {
   ImitationTask c(sim_c, upright_sampler(sim_c.skeleton()), tiny_config(), 4);
   EXPECT_THROW(c.load_state(st), Error);
 }
+
+// With an action space, step(a) drives the PD targets offset + scale ⊙ a: the same run as
+// stepping an identity task with those targets, bit for bit.
+TEST(ImitationTask, ActionSpaceMapsActionsToTargets) {
+  const Skeleton skel = tiny_walker_skeleton();
+  const Index nd = skel.num_dofs();
+  ImitationTaskConfig cfg = tiny_config();
+  cfg.actions.offset = VectorXf::LinSpaced(nd, -0.2f, 0.3f);
+  cfg.actions.scale = VectorXf::LinSpaced(nd, 0.5f, 2.0f);
+  TinyWalkerSim sim_a(3), sim_b(3);
+  ImitationTask<TinyWalkerSim> mapped(sim_a, upright_sampler(skel), cfg, 4);
+  ImitationTask<TinyWalkerSim> direct(sim_b, upright_sampler(skel), tiny_config(), 4);
+  Rng rng(6);
+  for (int t = 0; t < 12; ++t) {
+    const MatrixXf a = MatrixXf::NullaryExpr(nd, 3, [&] { return static_cast<float>(rng.uniform(-0.3, 0.3)); });
+    MatrixXf targets(nd, 3);
+    cfg.actions.to_targets(a, targets);
+    for (Index j = 0; j < 3; ++j)  // closed form, element by element
+      for (Index k = 0; k < nd; ++k) ASSERT_EQ(targets(k, j), cfg.actions.offset[k] + cfg.actions.scale[k] * a(k, j));
+    mapped.step(a);
+    direct.step(targets);
+    ASSERT_TRUE(mapped.observations() == direct.observations()) << "step " << t;
+  }
+  ImitationTaskConfig bad = tiny_config();
+  bad.actions.scale = VectorXf::Constant(nd, -1.0f);
+  TinyWalkerSim sim_c(1);
+  EXPECT_THROW(ImitationTask<TinyWalkerSim>(sim_c, upright_sampler(skel), bad, 1), Error);
+  bad.actions.scale = VectorXf::Ones(nd + 1);
+  EXPECT_THROW(ImitationTask<TinyWalkerSim>(sim_c, upright_sampler(skel), bad, 1), Error);
+}

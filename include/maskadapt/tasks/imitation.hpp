@@ -32,6 +32,7 @@
 #include <maskadapt/mask/parts.hpp>
 #include <maskadapt/mask/sampler.hpp>
 #include <maskadapt/motion/skeleton.hpp>
+#include <maskadapt/tasks/action_space.hpp>
 #include <maskadapt/sim/simulator.hpp>
 #include <maskadapt/sim/termination.hpp>
 
@@ -78,6 +79,7 @@ struct ImitationTaskConfig {
   double mask_prob = 0.8;             ///< p
   int max_masked_parts = 3;           ///< K
   std::optional<PartMask> fixed_mask; ///< if set, every step uses this mask (play / evaluation)
+  ActionSpace actions;                ///< step(a) drives the PD targets offset + scale ⊙ a (identity by default)
 };
 
 /// Statistics of the episodes that ended since the last `clear()`.
@@ -108,6 +110,7 @@ class ImitationTask {
     require(sim.control_dt() > 0, "the simulator's control_dt must be > 0", {{}, {}, "control_dt"});
     if (!cfg_.fall) cfg_.fall = FallCriteria::for_skeleton(sim.skeleton(), {"L_Ankle", "R_Ankle", "L_Toe", "R_Toe", "L_Wrist", "R_Wrist"}, "Head", cfg_.min_head_height);
     require(cfg_.episode_seconds > 0, "episode_seconds must be > 0", {{}, {}, "episode_seconds"});
+    cfg_.actions.validate(sim.skeleton().num_dofs(), "ImitationTaskConfig.actions");
     const Index n = num_envs();
     const Index d = obs_dim();
     rngs_.reserve(static_cast<std::size_t>(n));
@@ -184,7 +187,8 @@ class ImitationTask {
     build_policy_input();
   }
 
-  /// One control step with `actions` = PD targets (action_dim × N, radians).
+  /// One control step with `actions` (action_dim × N): the PD targets (radians) are
+  /// config.actions.to_targets(actions), the actions themselves with the identity action space.
   void step(const Eigen::Ref<const MatrixXf>& actions) {
     const Index n = num_envs();
     require(actions.rows() == action_dim() && actions.cols() == n,
@@ -192,7 +196,13 @@ class ImitationTask {
                 std::to_string(actions.rows()) + " × " + std::to_string(actions.cols()) + ")",
             {{}, {}, "actions"});
     require_finite(actions, "actions");
-    sim_.step(actions);
+    if (cfg_.actions.identity()) {
+      sim_.step(actions);
+    } else {
+      targets_.resize(action_dim(), n);  // (no allocation once sized)
+      cfg_.actions.to_targets(actions, targets_);
+      sim_.step(targets_);
+    }
     const StepStats& sim_stats = sim_.step_stats();
     const bool any_physics_reset = sim_stats.physics_reset.size() == static_cast<std::size_t>(n);
 
@@ -339,6 +349,7 @@ class ImitationTask {
   MaskSampler sampler_;
   std::vector<Rng> rngs_;
   MatrixXf obs_, final_obs_, policy_input_, amp_;
+  MatrixXf targets_;  ///< (action_dim × N) PD targets of a non-identity action space
   std::vector<MatrixXf> history_;
   std::vector<PartMask> masks_;
   std::vector<long long> steps_;

@@ -13,15 +13,20 @@
 ///   config                    the BaseTrainConfig as JSON text (architecture + everything else)
 ///   actor/params, actor/log_std, critic/params, disc/params        network parameters (float)
 ///   actor/norm/{count,mean,m2}, critic/norm/…, disc/norm/…         running normalisers (double)
+///   actor/action_offset, actor/action_scale   (num_dofs, float) PD target = offset + scale ⊙ a;
+///                                              absent ⇒ 0 and 1 (the actions are the targets)
 #include <maskadapt/core/checkpoint.hpp>
 #include <maskadapt/core/error.hpp>
 #include <maskadapt/core/rng.hpp>
 #include <maskadapt/nn/activation.hpp>
+#include <maskadapt/motion/library.hpp>
 #include <maskadapt/nn/normalizer.hpp>
 #include <maskadapt/rl/actor_critic.hpp>
 #include <maskadapt/rl/discriminator.hpp>
+#include <maskadapt/tasks/action_space.hpp>
 #include <maskadapt/train/config.hpp>
 
+#include <algorithm>
 #include <string>
 
 namespace maskadapt::train {
@@ -43,11 +48,66 @@ struct PolicyDims {
   Index amp_dim = 0;           ///< discriminator window (5 · obs_dim)
 };
 
-/// Networks of a base policy.
+/// Networks of a base policy, and how its actions become PD targets.
 struct BasePolicy {
   rl::ActorCritic<float> ac;
   rl::Discriminator<float> disc;  ///< amp_dim → 1 logit (normaliser + Adam inside)
+  tasks::ActionSpace actions;     ///< PD target = offset + scale ⊙ a (identity: a is the target)
 };
+
+/// The action space a config describes (its resolved vectors). Throws naming the field when a
+/// mode other than zero/one has not been resolved yet (resolve_action_space).
+inline tasks::ActionSpace action_space_of(const BaseTrainConfig& c, Index num_dofs) {
+  require(c.net.action_offset == "zero" || !c.net.action_offset_rad.empty(),
+          "action offset '" + c.net.action_offset + "' was not resolved into net.action_offset_rad",
+          {{}, std::nullopt, "net.action_offset_rad"});
+  require(c.net.action_scale == "one" || !c.net.action_scale_rad.empty(),
+          "action scale '" + c.net.action_scale + "' was not resolved into net.action_scale_rad",
+          {{}, std::nullopt, "net.action_scale_rad"});
+  tasks::ActionSpace a;
+  if (!c.net.action_offset_rad.empty())
+    a.offset = Eigen::Map<const VectorXd>(c.net.action_offset_rad.data(), static_cast<Index>(c.net.action_offset_rad.size())).cast<float>();
+  if (!c.net.action_scale_rad.empty())
+    a.scale = Eigen::Map<const VectorXd>(c.net.action_scale_rad.data(), static_cast<Index>(c.net.action_scale_rad.size())).cast<float>();
+  if (num_dofs >= 0) a.validate(num_dofs, "net.action");  // (num_dofs < 0: the task validates)
+  return a;
+}
+
+/// Fills net.action_offset_rad / net.action_scale_rad from their modes, when empty: `mean_pose`
+/// = mean of every joint angle over all frames of `lib`'s clips, `mid_range` = (lower + upper)/2
+/// of the skeleton's limits, `half_range` = (upper − lower)/2 (at least 0.05 rad). A config whose
+/// vectors are filled (a resumed run) is left as it is.
+inline void resolve_action_space(BaseTrainConfig& c, const Skeleton& skel, const MotionLibrary* lib) {
+  const Index nd = skel.num_dofs();
+  auto limit = [&](Index k, bool upper) {
+    const int b = 1 + static_cast<int>(k / 3), axis = static_cast<int>(k % 3);
+    require(Skeleton::dof_offset(b) + axis == k, "action spaces assume three hinges per non-root body",
+            {{}, std::nullopt, "net.action_offset"});
+    return upper ? skel.joint_upper(axis, b) : skel.joint_lower(axis, b);
+  };
+  if (c.net.action_offset_rad.empty() && c.net.action_offset != "zero") {
+    c.net.action_offset_rad.assign(static_cast<std::size_t>(nd), 0.0);
+    if (c.net.action_offset == "mid_range") {
+      for (Index k = 0; k < nd; ++k) c.net.action_offset_rad[static_cast<std::size_t>(k)] = 0.5 * (limit(k, false) + limit(k, true));
+    } else {  // mean_pose
+      require(lib != nullptr && lib->num_clips() > 0, "mean_pose needs the training motions", {{}, std::nullopt, "net.action_offset"});
+      VectorXd sum = VectorXd::Zero(nd);
+      double frames = 0;
+      for (int i = 0; i < lib->num_clips(); ++i) {
+        const MotionClip& clip = lib->clip(i);
+        require(clip.num_dofs() == nd, "clip '" + clip.name + "' does not fit the skeleton", {{}, std::nullopt, "env.motions"});
+        sum += clip.q.rowwise().sum();
+        frames += clip.num_frames();
+      }
+      for (Index k = 0; k < nd; ++k) c.net.action_offset_rad[static_cast<std::size_t>(k)] = sum[k] / frames;
+    }
+  }
+  if (c.net.action_scale_rad.empty() && c.net.action_scale == "half_range") {
+    c.net.action_scale_rad.assign(static_cast<std::size_t>(nd), 1.0);
+    for (Index k = 0; k < nd; ++k)
+      c.net.action_scale_rad[static_cast<std::size_t>(k)] = std::max(0.05, 0.5 * (limit(k, true) - limit(k, false)));
+  }
+}
 
 /// The discriminator configuration implied by a trainer config.
 inline rl::DiscriminatorConfig discriminator_config(const BaseTrainConfig& c, Index amp_dim) {
@@ -101,6 +161,8 @@ inline void save_policy(const BasePolicy& p, Checkpoint& c) {
   save_normalizer(p.ac.actor.normalizer, "actor/norm", c);
   save_normalizer(p.ac.critic.normalizer, "critic/norm", c);
   save_normalizer(p.disc.normalizer(), "disc/norm", c);
+  if (p.actions.offset.size()) c.put("actor/action_offset", p.actions.offset);
+  if (p.actions.scale.size()) c.put("actor/action_scale", p.actions.scale);
 }
 
 /// Reads what save_policy wrote into networks of the same sizes; throws naming the section on
@@ -113,6 +175,11 @@ inline void load_policy(const Checkpoint& c, BasePolicy& p) {
   load_normalizer(c, "actor/norm", p.ac.actor.normalizer);
   load_normalizer(c, "critic/norm", p.ac.critic.normalizer);
   load_normalizer(c, "disc/norm", p.disc.normalizer());
+  const Index nd = p.ac.actor.action_dim();
+  p.actions = {};  // checkpoints without these sections (older, or identity) drive the targets directly
+  if (c.contains("actor/action_offset")) p.actions.offset = c.get_vector<float>("actor/action_offset", nd);
+  if (c.contains("actor/action_scale")) p.actions.scale = c.get_vector<float>("actor/action_scale", nd);
+  p.actions.validate(nd, c.source().empty() ? "actor/action" : c.source() + ": actor/action");
 }
 
 /// A base policy and the configuration it was trained with, read from a stage-1 checkpoint.

@@ -64,6 +64,7 @@ inline tasks::ImitationTaskConfig task_config(const BaseTrainConfig& c, std::opt
   t.masking = c.mask.enabled;
   t.mask_prob = c.mask.prob;
   t.max_masked_parts = c.mask.max_parts;
+  t.actions = action_space_of(c, -1);
   return t;
 }
 
@@ -82,6 +83,7 @@ class BaseTrainer {
     require(static_cast<bool>(real_), "no real window sampler given", {{}, {}, "real_sampler"});
     Rng init = Rng::stream(cfg_.run.seed, 0x1A17ULL);
     policy_ = make_base_policy(cfg_, dims(), init);
+    policy_.actions = action_space_of(cfg_, task_.action_dim());
     actor_opt_ = nn::Adam<float>({cfg_.ppo.actor_lr, 0.9, 0.999, 1e-8, 0.0, false, cfg_.ppo.max_grad_norm});
     critic_opt_ = nn::Adam<float>({cfg_.ppo.critic_lr, 0.9, 0.999, 1e-8, 0.0, false, cfg_.ppo.max_grad_norm});
     rl::RolloutSpec spec;
@@ -272,9 +274,20 @@ class BaseTrainer {
         MatrixXf dls;
         nn::gaussian_log_prob_backward<float>(mu, actor.log_std_col(), act, dlogp, &dmu,
                                               actor.learn_log_std ? &dls : nullptr);
+        // action-bound penalty on the PD targets beyond ±π rad (target = offset + scale ⊙ μ)
         const float bound = static_cast<float>(M_PI), wb = static_cast<float>(cfg_.ppo.action_bound_weight);
-        dmu.array() += wb / static_cast<float>(B) *
-                       ((mu.array() - bound).max(0.0f) + (mu.array() + bound).min(0.0f)) * 2.0f;
+        const tasks::ActionSpace& space = policy_.actions;
+        if (space.identity()) {
+          dmu.array() += wb / static_cast<float>(B) *
+                         ((mu.array() - bound).max(0.0f) + (mu.array() + bound).min(0.0f)) * 2.0f;
+        } else {
+          bound_targets_.resize(mu.rows(), B);
+          space.to_targets(mu, bound_targets_);
+          bound_targets_ = wb / static_cast<float>(B) *
+                           ((bound_targets_.array() - bound).max(0.0f) + (bound_targets_.array() + bound).min(0.0f)) * 2.0f;
+          if (space.scale.size()) bound_targets_.array().colwise() *= space.scale.array();
+          dmu += bound_targets_;
+        }
         // λ_MI·L_MI reuses the surrogate's masked pass: its ∂/∂μ joins dmu before the one backward
         double mi_kl = 0;
         if (cfg_.mask.enabled) {
@@ -371,6 +384,7 @@ class BaseTrainer {
   nn::TrainCache<float> actor_cache_, critic_cache_;
   adapt::MiWorkspace<float> mi_ws_;
   MatrixXf actions_, mu_, values_, scratch_;
+  MatrixXf bound_targets_;  ///< (action_dim × minibatch) PD targets of μ, for the bound penalty
   RowVectorXf logp_;
 };
 

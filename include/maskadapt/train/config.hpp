@@ -81,6 +81,14 @@ struct NetworkConfig {
   std::string activation = "relu";   ///< relu | elu | silu | tanh
   double init_log_std = -2.9;        ///< log σ of the Gaussian policy (σ ≈ 0.055 rad of PD target; AMP/ASE value)
   bool learn_log_std = false;        ///< AMP keeps σ fixed
+  /// PD target = offset + scale ⊙ a (tasks/action_space.hpp). offset: `zero` (a = 0 is the
+  /// all-zero pose), `mean_pose` (the training motions' mean joint angles) or `mid_range` (the
+  /// middle of each joint's limits); scale: `one` (radians) or `half_range` (±1 spans the
+  /// joint's limits). Resolved into the two vectors below when a run starts; a resumed run keeps them.
+  std::string action_offset = "zero";
+  std::string action_scale = "one";
+  std::vector<double> action_offset_rad;  ///< (num_dofs) resolved offset; empty with `zero`
+  std::vector<double> action_scale_rad;   ///< (num_dofs) resolved scale; empty with `one`
 };
 
 /// PPO.
@@ -174,6 +182,14 @@ struct BaseTrainConfig {
           "must be \"both\" or \"target_stopped\"");
     for (const auto* h : {&net.actor_hidden, &net.critic_hidden, &net.disc_hidden})
       for (Index n : *h) check(n >= 1, h == &net.actor_hidden ? "net.actor_hidden" : h == &net.critic_hidden ? "net.critic_hidden" : "net.disc_hidden", "layer sizes must be ≥ 1");
+    check(net.action_offset == "zero" || net.action_offset == "mean_pose" || net.action_offset == "mid_range",
+          "net.action_offset", "expected zero, mean_pose or mid_range");
+    check(net.action_scale == "one" || net.action_scale == "half_range", "net.action_scale", "expected one or half_range");
+    for (double v : net.action_offset_rad) check(std::isfinite(v), "net.action_offset_rad", "must be finite numbers");
+    for (double v : net.action_scale_rad) check(std::isfinite(v) && v > 0, "net.action_scale_rad", "must be finite and > 0");
+    check(net.action_offset_rad.empty() || net.action_scale_rad.empty() ||
+              net.action_offset_rad.size() == net.action_scale_rad.size(),
+          "net.action_scale_rad", "must have as many entries as net.action_offset_rad");
     check(net.activation == "relu" || net.activation == "elu" || net.activation == "silu" || net.activation == "tanh",
           "net.activation", "expected relu, elu, silu or tanh");
     check(ppo.horizon >= 1, "ppo.horizon", "must be ≥ 1");
@@ -247,7 +263,9 @@ inline nlohmann::json to_json(const BaseTrainConfig& c) {
                {"lambda_mi", c.mask.lambda_mi}, {"mi_gradient", c.mask.mi_gradient}};
   j["net"] = {{"actor_hidden", c.net.actor_hidden}, {"critic_hidden", c.net.critic_hidden},
               {"disc_hidden", c.net.disc_hidden},   {"activation", c.net.activation},
-              {"init_log_std", c.net.init_log_std}, {"learn_log_std", c.net.learn_log_std}};
+              {"init_log_std", c.net.init_log_std}, {"learn_log_std", c.net.learn_log_std},
+              {"action_offset", c.net.action_offset}, {"action_scale", c.net.action_scale},
+              {"action_offset_rad", c.net.action_offset_rad}, {"action_scale_rad", c.net.action_scale_rad}};
   j["ppo"] = {{"horizon", c.ppo.horizon},
               {"gamma", c.ppo.gamma},
               {"gae_lambda", c.ppo.gae_lambda},
@@ -331,6 +349,10 @@ inline BaseTrainConfig config_from_json(const nlohmann::json& j, const std::stri
     r.get("activation", c.net.activation);
     r.get("init_log_std", c.net.init_log_std);
     r.get("learn_log_std", c.net.learn_log_std);
+    r.get("action_offset", c.net.action_offset);
+    r.get("action_scale", c.net.action_scale);
+    r.get("action_offset_rad", c.net.action_offset_rad);
+    r.get("action_scale_rad", c.net.action_scale_rad);
     r.finish();
   }
   {

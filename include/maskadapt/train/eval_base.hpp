@@ -105,6 +105,7 @@ VisitationResult evaluate_visitation(Sim& sim, const BasePolicy& policy, const t
   tc.early_termination = true;
   tc.masking = false;
   tc.fixed_mask = mask;
+  tc.actions = policy.actions;  // the policy's actions → PD targets
   tasks::ImitationTask<Sim> task(sim, reset, tc, opt.seed, pool);
   require(policy.ac.actor.input_dim() == task.policy_input_dim() && policy.ac.actor.action_dim() == task.action_dim(),
           "the policy does not fit this simulator", {{}, {}, "checkpoint"});

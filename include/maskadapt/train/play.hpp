@@ -88,6 +88,7 @@ PlayResult play_base_policy(Sim& sim, const BasePolicy& policy, tasks::ResetSamp
   tc.episode_seconds = opt.seconds + 1.0;  // no truncation inside the recording
   tc.early_termination = opt.reset_on_fall;
   tc.masking = false;
+  tc.actions = policy.actions;  // the policy's actions → PD targets
   Rng mask_rng = Rng::stream(opt.seed, 0x3A5CULL);
   auto mask_at = [&](double t) { return opt.masks ? opt.masks->sample(mask_rng, t) : PartMask::none(); };
   tc.fixed_mask = mask_at(0.0);

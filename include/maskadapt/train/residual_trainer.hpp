@@ -172,6 +172,13 @@ inline void load_norm(const Checkpoint& c, const std::string& name, nn::RunningN
 /// The stage-1 actor stored in a base checkpoint (architecture from its "config" section).
 inline rl::GaussianActor<float> load_base_actor(const Checkpoint& ck, Index obs_dim, Index action_dim) {
   const BaseTrainConfig bc = config_from_string(ck.get_string("config"), "base checkpoint (config)");
+  // Stage 2 composes â = w_gain·a + Δa and sends â to the simulator as PD targets: a base whose
+  // actions are normalised (PD target = offset + scale ⊙ a) would need â mapped the same way,
+  // which the residual trainers and evaluators do not do yet. Refuse rather than train on garbage.
+  require(!ck.contains("actor/action_offset") && !ck.contains("actor/action_scale"),
+          "this base maps its actions to PD targets (net.action_offset '" + bc.net.action_offset + "', net.action_scale '" +
+              bc.net.action_scale + "'); stage 2 supports only bases trained with action_offset zero and action_scale one so far",
+          {ck.source(), std::nullopt, "actor/action_offset"});
   rl::ActorCriticConfig ac;
   ac.policy_input_dim = obs_dim + kNumParts;
   ac.critic_input_dim = obs_dim;
