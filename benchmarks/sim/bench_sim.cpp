@@ -1,15 +1,26 @@
 // Control steps per second of MujocoHumanoidSim (stepping + observation + masked policy input)
-// against a bare loop of mj_step on the same model in the same binary.
+// against a bare loop of mj_step on the same model in the same binary, and the cost of one
+// control step under MuJoCo 2.2.2's solver/integrator options (BM_Options/...).
 //
 //   maskadapt_bench_sim --benchmark_min_time=2
+//   maskadapt_bench_sim --benchmark_filter=BM_Options --benchmark_repetitions=5 \
+//       --benchmark_enable_random_interleaving=true --benchmark_format=json > options.json
+//   python3 benchmarks/sim/option_ratios.py options.json   # medians and ratios against "old"
 //
-// items_per_second = env control steps per second (one control step = 4 physics steps at 1/120 s).
+// items_per_second = env control steps per second (one control step = 1/30 s of physics:
+// desc.substeps physics steps of desc.physics_dt).
 #include <maskadapt/core/blas_threads.hpp>
+#include <maskadapt/core/rng.hpp>
 #include <maskadapt/humanoid/observation.hpp>
 #include <maskadapt/mask/apply.hpp>
 #include <maskadapt/sim/mujoco/humanoid_sim.hpp>
 
 #include <benchmark/benchmark.h>
+
+#include <functional>
+#include <string>
+#include <utility>
+#include <vector>
 
 using namespace maskadapt;
 
@@ -72,6 +83,95 @@ void BM_FeaturesOnly(benchmark::State& state) {
   state.SetItemsProcessed(state.iterations() * static_cast<std::int64_t>(num_envs));
 }
 
+// ---- physics options ---------------------------------------------------------------------------
+// One control step (1/30 s) of MujocoHumanoidSim::step for 8 envs on 1 thread, per option set.
+// "old" is the setting before issue 13 (1/120 s × 4, armature 0.02/0.01, Newton, 100 iterations,
+// tolerance 1e-8, pyramidal, jacobian auto = sparse at nv = 69); "default" is
+// humanoid_description(). Two motions: "stand" holds the zero pose (16 contacts, solver
+// converges in ~1 iteration from its warm start) and "random" follows a fixed cycle of uniform
+// random targets inside the joint ranges, each held 5 control steps (flailing, falling, lying on
+// the floor: the contact load of early training). resets counts physics failures in the run.
+
+using PO = PhysicsOptions;
+constexpr int kOptionEnvs = 8;
+
+/// The random-target cycle: 40 targets, each held 5 control steps (63 × kOptionEnvs each).
+const std::vector<MatrixXf>& random_target_cycle() {
+  static const std::vector<MatrixXf> cycle = [] {
+    const Skeleton& s = humanoid_skeleton();
+    Rng r(2024);
+    std::vector<MatrixXf> c;
+    for (int k = 0; k < 40; ++k) {
+      MatrixXf t(s.num_dofs(), kOptionEnvs);
+      for (Index e = 0; e < kOptionEnvs; ++e)
+        for (int i = 1; i < s.num_bodies(); ++i)
+          for (int j = 0; j < 3; ++j)
+            t(Skeleton::dof_offset(i) + j, e) = static_cast<float>(r.uniform(s.joint_lower(j, i), s.joint_upper(j, i)));
+      c.push_back(std::move(t));
+    }
+    return c;
+  }();
+  return cycle;
+}
+
+void BM_Options(benchmark::State& state, HumanoidDescription desc, bool random) {
+  MujocoHumanoidSim sim(kOptionEnvs, 1, desc);
+  const MatrixXf zero = MatrixXf::Zero(63, kOptionEnvs);
+  const auto& cycle = random_target_cycle();
+  std::size_t k = 0;
+  for (auto _ : state) {
+    sim.step(random ? cycle[(k / 5) % cycle.size()] : zero);
+    ++k;
+  }
+  state.SetItemsProcessed(state.iterations() * kOptionEnvs);
+  state.counters["us_per_control_step"] =
+      benchmark::Counter(static_cast<double>(state.iterations() * kOptionEnvs) * 1e-6,
+                         benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
+  state.counters["resets"] = static_cast<double>(sim.step_stats().physics_resets);
+}
+
+void register_option_benchmarks() {
+  const HumanoidDescription old = legacy_humanoid_description_120hz();
+  const HumanoidDescription now = humanoid_description();
+  std::vector<std::pair<std::string, std::function<void(HumanoidDescription&)>>> tweaks = {
+      {"", [](HumanoidDescription&) {}},
+      {"+dense", [](HumanoidDescription& d) { d.physics.jacobian = PO::Jacobian::Dense; }},
+      {"+sparse", [](HumanoidDescription& d) { d.physics.jacobian = PO::Jacobian::Sparse; }},
+      {"+CG", [](HumanoidDescription& d) { d.physics.solver = PO::Solver::CG; }},
+      {"+PGS", [](HumanoidDescription& d) { d.physics.solver = PO::Solver::PGS; }},
+      {"+iter10", [](HumanoidDescription& d) { d.physics.iterations = 10; }},
+      {"+iter3", [](HumanoidDescription& d) { d.physics.iterations = 3; }},
+      {"+tol1e-6", [](HumanoidDescription& d) { d.physics.tolerance = 1e-6; }},
+      {"+elliptic", [](HumanoidDescription& d) { d.physics.cone = PO::Cone::Elliptic; }},
+  };
+  std::vector<std::pair<std::string, HumanoidDescription>> sets;
+  for (const auto& [name, f] : tweaks) {
+    HumanoidDescription d = old;
+    f(d);
+    sets.emplace_back("old" + name, d);
+  }
+  for (const auto& [name, f] : tweaks) {
+    HumanoidDescription d = now;
+    f(d);
+    sets.emplace_back("default" + name, d);
+  }
+  {
+    HumanoidDescription d = now;
+    d.physics.integrator = PO::Integrator::Implicit;
+    sets.emplace_back("default+implicit", d);
+    d = old;
+    d.physics.integrator = PO::Integrator::Implicit;
+    sets.emplace_back("old+implicit", d);
+  }
+  for (const bool random : {false, true})
+    for (const auto& [name, d] : sets)
+      benchmark::RegisterBenchmark(("BM_Options/" + std::string(random ? "random/" : "stand/") + name).c_str(),
+                                   [d = d, random](benchmark::State& st) { BM_Options(st, d, random); })
+          ->Unit(benchmark::kMicrosecond)
+          ->UseRealTime()
+          ->MinTime(0.3);
+}
+
 }  // namespace
 
 BENCHMARK(BM_BareMjStep)->Arg(1)->Arg(16)->Arg(64)->Unit(benchmark::kMillisecond)->UseRealTime();
@@ -82,6 +182,7 @@ BENCHMARK(BM_SimStepWithFeatures)
 BENCHMARK(BM_FeaturesOnly)->Arg(64)->Unit(benchmark::kMicrosecond)->UseRealTime();
 
 int main(int argc, char** argv) {
+  register_option_benchmarks();
   benchmark::Initialize(&argc, argv);
   if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
   benchmark::AddCustomContext("openblas_core", maskadapt::blas_core_name());  // MuJoCo itself uses no BLAS

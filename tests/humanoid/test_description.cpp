@@ -87,8 +87,45 @@ TEST(HumanoidDescription, GainsFollowTheStabilityNotes) {
   EXPECT_EQ(d.bodies[hb::LWrist].kp, 100);
   for (int i = 1; i < 22; ++i) EXPECT_DOUBLE_EQ(d.bodies[i].kd, d.bodies[i].kp / 10);
   EXPECT_DOUBLE_EQ(d.control_dt(), 1.0 / 30.0);
+  // 1/60 s physics × 2 substeps (issue 13) needs armature 0.08 legs/spine, 0.04 elsewhere.
+  EXPECT_EQ(d.physics_dt, 1.0 / 60.0);
+  EXPECT_EQ(d.substeps, 2);
+  EXPECT_EQ(d.bodies[hb::LAnkle].armature, 0.08);
+  EXPECT_EQ(d.bodies[hb::Chest].armature, 0.08);
+  EXPECT_EQ(d.bodies[hb::RWrist].armature, 0.04);
+  EXPECT_EQ(d.bodies[hb::Pelvis].armature, 0.0);
   EXPECT_EQ(d.dof_kp().size(), 63);
   EXPECT_EQ(d.dof_kp()[3 * (hb::LAnkle - 1) + 2], 800);
+}
+
+TEST(HumanoidDescription, LegacySettingsAreThoseBeforeIssue13) {
+  const HumanoidDescription d = legacy_humanoid_description_120hz();
+  EXPECT_EQ(d.physics_dt, 1.0 / 120.0);
+  EXPECT_EQ(d.substeps, 4);
+  EXPECT_DOUBLE_EQ(d.control_dt(), 1.0 / 30.0);
+  EXPECT_EQ(d.bodies[hb::LHip].armature, 0.02);
+  EXPECT_EQ(d.bodies[hb::LElbow].armature, 0.01);
+  EXPECT_EQ(d.bodies[hb::LHip].kp, humanoid_description().bodies[hb::LHip].kp);
+  EXPECT_EQ(humanoid_mjcf(d).find("armature=\"0.08\""), std::string::npos);
+}
+
+TEST(HumanoidMjcf, WritesThePhysicsOptions) {
+  HumanoidDescription d = humanoid_description();
+  const std::string a = humanoid_mjcf(d);
+  EXPECT_NE(a.find("<option timestep=\"0.016666666666666666\" integrator=\"Euler\" solver=\"Newton\" iterations=\"100\" "
+                   "tolerance=\"1e-08\" cone=\"pyramidal\" jacobian=\"auto\"/>"),
+            std::string::npos)
+      << a.substr(0, 600);
+  d.physics.solver = PhysicsOptions::Solver::CG;
+  d.physics.cone = PhysicsOptions::Cone::Elliptic;
+  d.physics.jacobian = PhysicsOptions::Jacobian::Dense;
+  d.physics.integrator = PhysicsOptions::Integrator::Implicit;
+  d.physics.contact_timeconst = 0.04;
+  const std::string b = humanoid_mjcf(d);
+  for (const char* s : {"solver=\"CG\"", "cone=\"elliptic\"", "jacobian=\"dense\"", "integrator=\"implicit\"", "solref=\"0.04 1\""})
+    EXPECT_NE(b.find(s), std::string::npos) << s;
+  d.physics.iterations = 0;
+  EXPECT_THROW(humanoid_mjcf(d), Error);
 }
 
 TEST(HumanoidMjcf, DeterministicAndComplete) {

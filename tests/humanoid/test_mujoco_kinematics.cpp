@@ -70,8 +70,17 @@ TEST(MujocoKinematics, MassAndJointRangesMatchTheDescription) {
   const int j = mj_name2id(m, mjOBJ_JOINT, "L_Knee_y");
   ASSERT_GE(j, 0);
   EXPECT_DOUBLE_EQ(m->jnt_range[2 * j + 1], humanoid_skeleton().joint_upper(1, hb::LKnee));
-  EXPECT_DOUBLE_EQ(m->opt.timestep, 1.0 / 120.0);
+  EXPECT_DOUBLE_EQ(m->opt.timestep, 1.0 / 60.0);
   EXPECT_EQ(m->opt.integrator, mjINT_EULER);
+  EXPECT_EQ(m->opt.solver, mjSOL_NEWTON);
+  EXPECT_EQ(m->opt.iterations, 100);
+  EXPECT_EQ(m->opt.tolerance, 1e-8);
+  EXPECT_EQ(m->opt.cone, mjCONE_PYRAMIDAL);
+  EXPECT_EQ(m->opt.jacobian, mjJAC_AUTO);  // sparse at nv = 69 (dense measured slower, docs/benchmarks.md)
+  EXPECT_EQ(m->nv, 69);
+  EXPECT_DOUBLE_EQ(m->dof_armature[m->jnt_dofadr[mj_name2id(m, mjOBJ_JOINT, "L_Ankle_x")]], 0.08);
+  EXPECT_DOUBLE_EQ(m->dof_armature[m->jnt_dofadr[mj_name2id(m, mjOBJ_JOINT, "R_Wrist_z")]], 0.04);
+  EXPECT_DOUBLE_EQ(m->geom_solref[2 * mj_name2id(m, mjOBJ_GEOM, "floor")], 0.02);
 }
 
 TEST(MujocoKinematics, CommittedAssetLoads) {

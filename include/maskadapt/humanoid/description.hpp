@@ -64,16 +64,36 @@ struct BodyDescription {
   }
 };
 
+/// MuJoCo solver/integrator options of the simulated humanoid (MJCF `<option>` and contact
+/// parameters). The defaults are MuJoCo 2.2.2's own except where docs/humanoid.md says why.
+struct PhysicsOptions {
+  enum class Integrator { Euler, Implicit };  ///< RK4 blows up with these gains (docs/humanoid.md)
+  enum class Solver { PGS, CG, Newton };
+  enum class Cone { Pyramidal, Elliptic };
+  enum class Jacobian { Dense, Sparse, Auto };  ///< Auto: dense if nv < 60 (ours: nv = 69 → sparse)
+  Integrator integrator = Integrator::Euler;
+  Solver solver = Solver::Newton;
+  int iterations = 100;     ///< maximum main-solver iterations
+  double tolerance = 1e-8;  ///< main-solver tolerance (relative cost improvement)
+  Cone cone = Cone::Pyramidal;
+  Jacobian jacobian = Jacobian::Auto;
+  /// Contact `solref` (time constant s, damping ratio) of the floor and all body geoms. MuJoCo
+  /// clamps the time constant to ≥ 2 × physics_dt unless refsafe is disabled.
+  double contact_timeconst = 0.02;
+  double contact_dampratio = 1.0;
+};
+
 /// Everything needed to build the simulated humanoid.
 struct HumanoidDescription {
   Skeleton skeleton;                    ///< kinematics, parts and joint limits (rad)
   std::vector<BodyDescription> bodies;  ///< (num_bodies) geoms, masses, gains
   double root_height = 0.0;             ///< pelvis height (m) that puts the zero pose's soles on z = 0
-  double physics_dt = 1.0 / 120.0;      ///< physics time step (s), semi-implicit Euler
-  int substeps = 4;                     ///< physics steps per control step (30 Hz control)
+  double physics_dt = 1.0 / 60.0;       ///< physics time step (s), semi-implicit Euler (the paper's rate)
+  int substeps = 2;                     ///< physics steps per control step (30 Hz control)
   double friction = 1.0;                ///< sliding friction between geoms and the floor
   int nconmax = 100;                    ///< MuJoCo contact buffer (per mjData)
   int njmax = 500;                      ///< MuJoCo constraint rows (memory grows with its square)
+  PhysicsOptions physics;               ///< solver, integrator, cone, Jacobian, contact solref
 
   double control_dt() const { return physics_dt * substeps; }
   double total_mass() const {
@@ -212,11 +232,16 @@ inline HumanoidDescription make_humanoid_description() {
     B[b].kd = kp / 10.0;
     B[b].armature = armature;
   };
-  for (int b : {hb::LHip, hb::RHip, hb::LKnee, hb::RKnee, hb::Torso, hb::Spine, hb::Chest}) gains(b, 500, 0.02);
-  for (int b : {hb::LAnkle, hb::RAnkle}) gains(b, 800, 0.02);
-  for (int b : {hb::LThorax, hb::RThorax, hb::LShoulder, hb::RShoulder}) gains(b, 300, 0.01);
-  for (int b : {hb::LElbow, hb::RElbow}) gains(b, 200, 0.01);
-  for (int b : {hb::LWrist, hb::RWrist, hb::Neck, hb::Head, hb::LToe, hb::RToe}) gains(b, 100, 0.01);
+  // Armature (kg·m²) 0.08 legs/spine, 0.04 arms/neck/head/toes: what 1/60 s physics needs to
+  // stand and survive random targets, with a 2× margin (0.02/0.01 topples at 1/60 s, 0.04/0.02
+  // stands but failed 9 times in 10k random-target steps, 0.06/0.03 and 0.08/0.04 never did;
+  // docs/humanoid.md). Every joint is overdamped (kd/kp = 0.1 s sets its response), so the
+  // added rotor inertia leaves PD tracking no worse (test PdTrackingNoWorseThanThe120HzSettings).
+  for (int b : {hb::LHip, hb::RHip, hb::LKnee, hb::RKnee, hb::Torso, hb::Spine, hb::Chest}) gains(b, 500, 0.08);
+  for (int b : {hb::LAnkle, hb::RAnkle}) gains(b, 800, 0.08);
+  for (int b : {hb::LThorax, hb::RThorax, hb::LShoulder, hb::RShoulder}) gains(b, 300, 0.04);
+  for (int b : {hb::LElbow, hb::RElbow}) gains(b, 200, 0.04);
+  for (int b : {hb::LWrist, hb::RWrist, hb::Neck, hb::Head, hb::LToe, hb::RToe}) gains(b, 100, 0.04);
 
   // Soles: ankle joint at z = −0.867 below the pelvis, sole 0.078 m lower.
   d.root_height = 0.867 + 0.078;
@@ -228,6 +253,19 @@ inline HumanoidDescription make_humanoid_description() {
 /// The reference humanoid (built once, immutable).
 inline const HumanoidDescription& humanoid_description() {
   static const HumanoidDescription d = detail::make_humanoid_description();
+  return d;
+}
+
+/// The reference humanoid with the physics settings used before issue 13: 1/120 s × 4 substeps,
+/// armature 0.02 (legs/spine) / 0.01 (arms, neck, head, toes); same bodies, gains, solver.
+/// For comparisons (benchmarks/sim, tests/sim) and for running policies trained before the
+/// change on the dynamics they were trained on: `MujocoHumanoidSim sim(n, t, legacy_humanoid_description_120hz())`.
+inline HumanoidDescription legacy_humanoid_description_120hz() {
+  HumanoidDescription d = humanoid_description();
+  d.physics_dt = 1.0 / 120.0;
+  d.substeps = 4;
+  for (auto& b : d.bodies) b.armature /= 4.0;  // 0.08 → 0.02, 0.04 → 0.01 (exact: powers of two)
+  d.physics = PhysicsOptions{};
   return d;
 }
 

@@ -13,7 +13,9 @@
 ///    biasprm="0 -kp 0">` with ctrlrange = the joint range. The D term lives in joint damping,
 ///    which MuJoCo's Euler integrates implicitly (an actuator velocity bias would be explicit and
 ///    blows up with these gains; see docs/humanoid.md);
-///  - Euler integrator at description.physics_dt.
+///  - `<option>` with description.physics_dt and every PhysicsOptions field written out
+///    (integrator, solver, iterations, tolerance, cone, jacobian), and the contact `solref` on
+///    the floor and every body geom, so the file states all the physics it relies on.
 #include <maskadapt/humanoid/description.hpp>
 
 #include <cstdio>
@@ -51,14 +53,25 @@ inline std::string humanoid_mjcf(const HumanoidDescription& desc) {
        "     Do not edit: change the description and regenerate (tests/humanoid checks they agree). -->\n";
   x += "<mujoco model=\"maskadapt_humanoid\">\n";
   x += "  <compiler angle=\"radian\" inertiafromgeom=\"true\"/>\n";
-  x += "  <option timestep=\"" + mjcf_num(desc.physics_dt) + "\" integrator=\"Euler\"/>\n";
+  const PhysicsOptions& o = desc.physics;
+  require(o.iterations >= 1 && o.tolerance >= 0 && o.contact_timeconst > 0 && o.contact_dampratio > 0,
+          "physics options out of range (iterations ≥ 1, tolerance ≥ 0, contact solref > 0)", {{}, {}, "physics"});
+  using PO = PhysicsOptions;
+  const char* integrator = o.integrator == PO::Integrator::Euler ? "Euler" : "implicit";
+  const char* solver = o.solver == PO::Solver::Newton ? "Newton" : o.solver == PO::Solver::CG ? "CG" : "PGS";
+  const char* cone = o.cone == PO::Cone::Pyramidal ? "pyramidal" : "elliptic";
+  const char* jacobian = o.jacobian == PO::Jacobian::Auto ? "auto" : o.jacobian == PO::Jacobian::Dense ? "dense" : "sparse";
+  x += "  <option timestep=\"" + mjcf_num(desc.physics_dt) + "\" integrator=\"" + integrator + "\" solver=\"" + solver +
+       "\" iterations=\"" + std::to_string(o.iterations) + "\" tolerance=\"" + mjcf_num(o.tolerance) + "\" cone=\"" +
+       cone + "\" jacobian=\"" + jacobian + "\"/>\n";
   x += "  <size nconmax=\"" + std::to_string(desc.nconmax) + "\" njmax=\"" + std::to_string(desc.njmax) + "\"/>\n";
   x += "  <worldbody>\n";
+  const std::string solref = " solref=\"" + mjcf_num(o.contact_timeconst) + " " + mjcf_num(o.contact_dampratio) + "\"";
   x += "    <geom name=\"floor\" type=\"plane\" size=\"100 100 0.1\" contype=\"1\" conaffinity=\"1\" friction=\"" +
-       mjcf_num(desc.friction) + " 0.005 0.0001\"/>\n";
+       mjcf_num(desc.friction) + " 0.005 0.0001\"" + solref + "/>\n";
 
   const std::string geom_common = " contype=\"1\" conaffinity=\"0\" condim=\"3\" friction=\"" +
-                                  mjcf_num(desc.friction) + " 0.005 0.0001\"";
+                                  mjcf_num(desc.friction) + " 0.005 0.0001\"" + solref;
   std::function<void(int, int)> emit = [&](int i, int depth) {
     const std::string ind(static_cast<std::size_t>(2 * depth), ' ');
     const Vec3 pos = i == 0 ? Vec3(0, 0, desc.root_height) : Vec3(s.offsets.col(i));
