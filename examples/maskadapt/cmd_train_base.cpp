@@ -79,7 +79,7 @@ void run_train_base(const TrainBaseArgs& a) {
   ThreadPool pool(static_cast<std::size_t>(cfg.run.threads));
   MujocoHumanoidSim sim(static_cast<std::size_t>(cfg.env.num_envs), pool);
   resolve_action_space(cfg, sim.skeleton(), lib.get());  // a resumed run's config holds them already
-  BaseTrainer<MujocoHumanoidSim> trainer(sim, library_reset_sampler(lib), library_window_sampler(lib), cfg, &pool);
+  BaseTrainer<MujocoHumanoidSim> trainer(sim, library_reset_sampler(lib), library_window_sampler(lib, &pool), cfg, &pool);
   if (resume) {
     trainer.load(*resume);
     std::cout << "train-base: resumed at iteration " << trainer.iteration() << " from " << a.resume << "\n";

@@ -176,7 +176,7 @@ TEST(MujocoResume, TrainingIsBitIdenticalForAnyThreadCount) {
   auto run = [&](std::size_t threads) {
     ThreadPool pool(threads);
     MujocoHumanoidSim sim(4, pool);
-    BaseTrainer<MujocoHumanoidSim> trainer(sim, library_reset_sampler(lib), library_window_sampler(lib), cfg, &pool);
+    BaseTrainer<MujocoHumanoidSim> trainer(sim, library_reset_sampler(lib), library_window_sampler(lib, &pool), cfg, &pool);
     for (int i = 0; i < 3; ++i) trainer.iterate();
     Checkpoint c;
     trainer.save(c);

@@ -15,6 +15,7 @@
 /// locomotion loop keeps travelling instead of jumping back.
 #include <maskadapt/core/error.hpp>
 #include <maskadapt/core/rng.hpp>
+#include <maskadapt/core/thread_pool.hpp>
 #include <maskadapt/humanoid/description.hpp>
 #include <maskadapt/humanoid/observation.hpp>
 #include <maskadapt/mask/parts.hpp>
@@ -210,12 +211,18 @@ class MotionLibrary {
     }
   }
 
-  /// A batch of AMP windows from sampled (clip, time): (amp_window_dim() × batch).
-  MatrixXf sample_amp_windows(Rng& rng, int batch) const {
+  /// A batch of AMP windows from sampled (clip, time): (amp_window_dim() × batch). The times
+  /// are drawn in order from `rng`; the windows (5 poses, forward kinematics and features each)
+  /// are then computed on `pool` when one is given — the same numbers for any pool size.
+  MatrixXf sample_amp_windows(Rng& rng, int batch, ThreadPool* pool = nullptr) const {
     MatrixXf out(amp_window_dim(), batch);
-    for (int b = 0; b < batch; ++b) {
-      const ClipTime ct = sample(rng, true, (kAmpWindowFrames - 1) * kAmpFrameDt);
-      amp_window(ct.clip, ct.time, out.col(b));
+    std::vector<ClipTime> times(static_cast<std::size_t>(std::max(batch, 0)));
+    for (auto& ct : times) ct = sample(rng, true, (kAmpWindowFrames - 1) * kAmpFrameDt);
+    auto window = [&](std::size_t b) { amp_window(times[b].clip, times[b].time, out.col(static_cast<Index>(b))); };
+    if (pool && batch > 1) {
+      pool->parallel_for(0, times.size(), window);
+    } else {
+      for (std::size_t b = 0; b < times.size(); ++b) window(b);
     }
     return out;
   }

@@ -60,9 +60,12 @@ inline tasks::ResetSampler library_reset_sampler(std::shared_ptr<const MotionLib
   };
 }
 
-/// Real discriminator windows from the library (same layout as the task's windows).
-inline RealWindowSampler library_window_sampler(std::shared_ptr<const MotionLibrary> lib) {
-  return [lib](Rng& rng, Eigen::Ref<MatrixXf> out) { out = lib->sample_amp_windows(rng, static_cast<int>(out.cols())); };
+/// Real discriminator windows from the library (same layout as the task's windows), computed on
+/// `pool` when one is given (bit-identical for any pool size; the trainer's env pool is idle then).
+inline RealWindowSampler library_window_sampler(std::shared_ptr<const MotionLibrary> lib, ThreadPool* pool = nullptr) {
+  return [lib, pool](Rng& rng, Eigen::Ref<MatrixXf> out) {
+    out = lib->sample_amp_windows(rng, static_cast<int>(out.cols()), pool);
+  };
 }
 
 }  // namespace maskadapt::train
