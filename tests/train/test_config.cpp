@@ -101,6 +101,11 @@ TEST(TrainConfig, ErrorsNameTheFieldAndFile) {
   EXPECT_EQ(error_field(R"({"preset": "gpu"})"), "preset");
   EXPECT_EQ(error_field(R"({"run": 5})"), "run");
   EXPECT_EQ(error_field(R"({"run": {"iterations": 0, "minutes": 0}})"), "run.iterations");
+  EXPECT_EQ(error_field(R"({"ppo": {"actor_lr_schedule": "cosine"}})"), "ppo.actor_lr_schedule");
+  EXPECT_EQ(error_field(R"({"ppo": {"adaptive_lr": {"factor": 1.0}}})"), "ppo.adaptive_lr.factor");
+  EXPECT_EQ(error_field(R"({"ppo": {"adaptive_lr": {"min_lr": 1e-3, "max_lr": 1e-4}}})"), "ppo.adaptive_lr.max_lr");
+  EXPECT_EQ(error_field(R"({"net": {"action_offset": "median"}})"), "net.action_offset");
+  EXPECT_EQ(error_field(R"({"net": {"action_scale_rad": [1.0, -1.0]}})"), "net.action_scale_rad");
   EXPECT_EQ(error_field(R"({"ppo": {"horizon": 32}})"), "");  // valid: nothing thrown
 }
 

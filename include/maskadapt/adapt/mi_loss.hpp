@@ -175,8 +175,7 @@ MiLossResult mi_loss(rl::GaussianActor<T>& actor, const std::type_identity_t<Eig
   require(full_input.rows() == actor.input_dim() && masked_input.rows() == actor.input_dim() &&
               full_input.cols() == masked_input.cols() && full_input.cols() > 0,
           "full and masked inputs must both be (policy_input_dim × B) with B > 0", {{}, {}, "mi_loss"});
-  require(lambda >= 0, "lambda_MI must be >= 0", {{}, {}, "lambda_mi"});
-  actor.normalize(masked_input, w.norm_masked);
+  actor.normalize(masked_input, w.norm_masked);  // (mi_loss_on_masked_pass checks λ before adding anything)
   const MatrixX<T>& mu_masked = actor.mean_net.forward_train(w.norm_masked, w.cache);
   w.dmu.setZero(actor.action_dim(), masked_input.cols());
   const MiLossResult r = mi_loss_on_masked_pass<T>(actor, full_input, masked_input, mu_masked, lambda, w, gradient, w.dmu);

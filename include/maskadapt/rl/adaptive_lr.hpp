@@ -25,13 +25,14 @@ struct AdaptiveKlSchedule {
   double min_lr = 1e-6;
   double max_lr = 1e-2;
 
-  /// Throws naming the field unless 0 < desired_kl, factor > 1 and 0 < min_lr ≤ max_lr (finite).
-  void validate(const std::string& prefix = "adaptive_lr") const {
+  /// Throws naming the field (`prefix`.…, and `file` when given) unless 0 < desired_kl,
+  /// factor > 1 and 0 < min_lr ≤ max_lr, all finite.
+  void validate(const std::string& prefix = "adaptive_lr", const std::string& file = {}) const {
     auto ok = [](double x) { return std::isfinite(x) && x > 0; };
-    require(ok(desired_kl), "must be finite and > 0", {{}, {}, prefix + ".desired_kl"});
-    require(std::isfinite(factor) && factor > 1, "must be finite and > 1", {{}, {}, prefix + ".factor"});
-    require(ok(min_lr), "must be finite and > 0", {{}, {}, prefix + ".min_lr"});
-    require(ok(max_lr) && max_lr >= min_lr, "must be finite and >= min_lr", {{}, {}, prefix + ".max_lr"});
+    require(ok(desired_kl), "must be finite and > 0", {file, {}, prefix + ".desired_kl"});
+    require(std::isfinite(factor) && factor > 1, "must be finite and > 1", {file, {}, prefix + ".factor"});
+    require(ok(min_lr), "must be finite and > 0", {file, {}, prefix + ".min_lr"});
+    require(ok(max_lr) && max_lr >= min_lr, "must be finite and >= min_lr", {file, {}, prefix + ".max_lr"});
   }
 };
 

@@ -276,18 +276,14 @@ class BaseTrainer {
                                               actor.learn_log_std ? &dls : nullptr);
         // action-bound penalty on the PD targets beyond ±π rad (target = offset + scale ⊙ μ)
         const float bound = static_cast<float>(M_PI), wb = static_cast<float>(cfg_.ppo.action_bound_weight);
+        // (the identity action space copies μ; d target/dμ = scale, 1 without one)
         const tasks::ActionSpace& space = policy_.actions;
-        if (space.identity()) {
-          dmu.array() += wb / static_cast<float>(B) *
-                         ((mu.array() - bound).max(0.0f) + (mu.array() + bound).min(0.0f)) * 2.0f;
-        } else {
-          bound_targets_.resize(mu.rows(), B);
-          space.to_targets(mu, bound_targets_);
-          bound_targets_ = wb / static_cast<float>(B) *
-                           ((bound_targets_.array() - bound).max(0.0f) + (bound_targets_.array() + bound).min(0.0f)) * 2.0f;
-          if (space.scale.size()) bound_targets_.array().colwise() *= space.scale.array();
-          dmu += bound_targets_;
-        }
+        bound_targets_.resize(mu.rows(), B);
+        space.to_targets(mu, bound_targets_);
+        bound_targets_ = wb / static_cast<float>(B) *
+                         ((bound_targets_.array() - bound).max(0.0f) + (bound_targets_.array() + bound).min(0.0f)) * 2.0f;
+        if (space.scale.size()) bound_targets_.array().colwise() *= space.scale.array();
+        dmu += bound_targets_;
         // λ_MI·L_MI reuses the surrogate's masked pass: its ∂/∂μ joins dmu before the one backward
         double mi_kl = 0;
         if (cfg_.mask.enabled) {

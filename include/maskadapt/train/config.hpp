@@ -156,10 +156,6 @@ struct BaseTrainConfig {
         {"ppo.critic_lr", ppo.critic_lr},
         {"ppo.max_grad_norm", ppo.max_grad_norm},
         {"ppo.action_bound_weight", ppo.action_bound_weight},
-        {"ppo.adaptive_lr.desired_kl", ppo.adaptive_lr.desired_kl},
-        {"ppo.adaptive_lr.factor", ppo.adaptive_lr.factor},
-        {"ppo.adaptive_lr.min_lr", ppo.adaptive_lr.min_lr},
-        {"ppo.adaptive_lr.max_lr", ppo.adaptive_lr.max_lr},
         {"disc.lr", disc.lr},
         {"disc.gradient_penalty", disc.gradient_penalty},
         {"disc.logit_reg", disc.logit_reg},
@@ -203,10 +199,7 @@ struct BaseTrainConfig {
     check(ppo.max_grad_norm > 0, "ppo.max_grad_norm", "must be > 0");
     check(ppo.actor_lr_schedule == "fixed" || ppo.actor_lr_schedule == "adaptive", "ppo.actor_lr_schedule",
           "expected fixed or adaptive");
-    check(ppo.adaptive_lr.desired_kl > 0, "ppo.adaptive_lr.desired_kl", "must be > 0");
-    check(ppo.adaptive_lr.factor > 1, "ppo.adaptive_lr.factor", "must be > 1");
-    check(ppo.adaptive_lr.min_lr > 0, "ppo.adaptive_lr.min_lr", "must be > 0");
-    check(ppo.adaptive_lr.max_lr >= ppo.adaptive_lr.min_lr, "ppo.adaptive_lr.max_lr", "must be ≥ ppo.adaptive_lr.min_lr");
+    ppo.adaptive_lr.validate("ppo.adaptive_lr", file);  // (also rejects non-finite values)
     check(disc.lr >= 0, "disc.lr", "must be ≥ 0");
     check(disc.gradient_penalty >= 0, "disc.gradient_penalty", "must be ≥ 0");
     check(disc.replay_size >= 1, "disc.replay_size", "must be ≥ 1");
