@@ -5,15 +5,18 @@
 #   scripts/setup.sh               # core packages + build
 #   scripts/setup.sh --with-torch  # also libtorch-dev (~800 MB) for the LibTorch benchmark peers
 #   scripts/setup.sh --no-build    # packages only
+#   scripts/setup.sh --cli-only    # build only the `maskadapt` command (what quickstart.sh needs)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
 with_torch=0
 build=1
+target=()
 for arg in "$@"; do
   case "$arg" in
     --with-torch) with_torch=1 ;;
     --no-build) build=0 ;;
+    --cli-only) target=(--target maskadapt_cli) ;;
     *) echo "setup.sh: unknown option '$arg'" >&2; exit 2 ;;
   esac
 done
@@ -44,5 +47,5 @@ if [ "$build" = 1 ]; then
   extra=()
   [ "$with_torch" = 1 ] && extra+=(-DMASKADAPT_WITH_TORCH=ON)
   cmake -S . -B build -DCMAKE_BUILD_TYPE=Release "${extra[@]}" >/dev/null
-  cmake --build build -j"$(nproc)"
+  cmake --build build -j"$(nproc)" "${target[@]}"
 fi

@@ -50,8 +50,7 @@ int diff_checkpoints(const std::string& path_a, const std::string& path_b, bool 
             << "elements" << std::setw(11) << "differing" << std::setw(14) << "max |a-b|" << std::setw(14) << "max |a|"
             << "\n";
   for (const auto& name : names) {
-    const bool in_a = std::find(a.names().begin(), a.names().end(), name) != a.names().end();
-    const bool in_b = std::find(b.names().begin(), b.names().end(), name) != b.names().end();
+    const bool in_a = a.contains(name), in_b = b.contains(name);
     if (!in_a || !in_b) {
       ++different;
       std::cout << std::left << std::setw(34) << name << "only in " << (in_a ? path_a : path_b) << "\n";

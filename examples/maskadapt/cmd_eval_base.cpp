@@ -54,13 +54,15 @@ void run_eval_base(const EvalBaseArgs& a) {
   opt.episode_seconds = a.episode_seconds;
   opt.deterministic = a.deterministic;
   opt.seed = static_cast<std::uint64_t>(a.seed);
-  std::cout << "eval-base: " << a.checkpoint << " (iteration " << loaded.iteration << ", masking "
+  std::cout << "eval-base: " << a.checkpoint << " (iteration " << loaded.iteration
+            << (loaded.policy_only ? ", model (policy only)" : "") << ", masking "
             << (loaded.config.mask.enabled ? "on" : "off") << ", lambda_MI " << loaded.config.mask.lambda_mi << "); "
             << reference.cols() << " reference frames from " << lib->num_clips() << " clip(s); 16 masks x 2 starts x "
             << a.envs << " envs x " << a.frames << " frames; threshold " << a.threshold << " m\n";
   Stopwatch clock;
-  const BaseEvaluation ev = evaluate_base_policy(sim, loaded.policy, library_reset_sampler(lib), reference, opt, std::nullopt,
+  BaseEvaluation ev = evaluate_base_policy(sim, loaded.policy, library_reset_sampler(lib), reference, opt, std::nullopt,
                                                  loaded.config.env.termination_height, &pool, &std::cout);
+  ev.reference_speed = reference_mean_speed(*lib);
   std::cout << "\n" << format_hnorm_table(ev, false) << "\n" << format_hnorm_table(ev, true) << "\n"
             << format_episode_table(ev) << "eval-base: " << clock.seconds() << " s\n";
   if (!a.json.empty()) {
@@ -84,8 +86,8 @@ void run_eval_base(const EvalBaseArgs& a) {
 
 const bool registered = maskadapt::cli::register_command([](CLI::App& app) {
   auto args = std::make_shared<EvalBaseArgs>();
-  CLI::App* c = app.add_subcommand("eval-base", "H_norm table, fall rate and episode length of a stage-1 base policy");
-  c->add_option("checkpoint", args->checkpoint, "stage-1 checkpoint (train-base output)")->required();
+  CLI::App* c = app.add_subcommand("eval-base", "H_norm table, fall rate, episode length and speed of a stage-1 base policy");
+  c->add_option("checkpoint", args->checkpoint, "stage-1 checkpoint (train-base output) or its policy-only export")->required();
   using namespace maskadapt::cli;
   c->add_option("--envs", args->envs, "parallel envs per (mask, start)")->transform(integer_in(1, maskadapt::train::kMaxEnvs));
   c->add_option("--frames", args->frames, "control steps per env per (mask, start)")->transform(positive_integer());

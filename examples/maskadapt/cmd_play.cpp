@@ -57,7 +57,8 @@ void run_play(const PlayArgs& a) {
   if (!a.mask.empty()) opt.masks = MaskSampler::fixed(PartMask::parse(a.mask, "--mask"));
   if (!a.schedule.empty()) opt.masks = MaskSampler::scheduled(parse_mask_schedule(a.schedule, "--mask-schedule"));
   const std::string mask_text = !a.schedule.empty() ? a.schedule : !a.mask.empty() ? a.mask : "none";
-  std::cout << "play: " << a.checkpoint << " (iteration " << loaded.iteration << "), mask " << mask_text << ", "
+  std::cout << "play: " << a.checkpoint << " (iteration " << loaded.iteration << (loaded.policy_only ? ", model (policy only)" : "")
+            << "), mask " << mask_text << ", "
             << a.seconds << " s, " << (a.deterministic ? "mean actions" : "sampled actions") << ", seed " << a.seed << "\n";
 
   eval::Rollout tmpl = eval::make_rollout(sim.description());
@@ -104,7 +105,7 @@ const bool registered = maskadapt::cli::register_command([](CLI::App& app) {
   auto args = std::make_shared<PlayArgs>();
   CLI::App* c = app.add_subcommand("play", "Run a stage-1 base policy with a part mask and export the rollout");
   using namespace maskadapt::cli;
-  c->add_option("checkpoint", args->checkpoint, "stage-1 checkpoint (train-base output)")->required();
+  c->add_option("checkpoint", args->checkpoint, "stage-1 checkpoint (train-base output) or its policy-only export")->required();
   c->add_option("--mask", args->mask, "fixed mask: comma-separated parts/groups (left_leg,right_leg | arms | none ...)")
       ->check(parsed_by([](const std::string& t) { (void)maskadapt::PartMask::parse(t); }, "MASK"));
   c->add_option("--mask-schedule", args->schedule, "masks over time, e.g. \"0:none,5:lower_body\"")

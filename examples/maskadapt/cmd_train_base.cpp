@@ -26,9 +26,9 @@ struct TrainBaseArgs {
   long long iterations = -1, checkpoint_every = -1;
   double minutes = -1, lambda_mi = -1, mask_prob = -1;
   int max_parts = -1;
-  long long seed = -1;
+  long long seed = -1, mask_warmup_samples = -1, mask_ramp_samples = -1;
   bool no_mask = false;
-  std::string action_offset, action_scale, actor_lr_schedule;
+  std::string action_offset, action_scale, actor_lr_schedule, mi_gradient, hidden_value;
 };
 
 /// The flags that set a config field, for errors found by BaseTrainConfig::validate().
@@ -37,6 +37,7 @@ const std::vector<std::pair<std::string, std::string>> kFieldFlags = {
     {"run.minutes", "--minutes"},       {"run.checkpoint_every", "--checkpoint-every"},
     {"run.out_dir", "--out"},           {"env.motions", "--motions"},     {"mask.lambda_mi", "--lambda-mi"},
     {"mask.prob", "--mask-prob"},       {"mask.max_parts", "--max-parts"},
+    {"mask.warmup_samples", "--mask-warmup-samples"}, {"mask.mi_gradient", "--mi-gradient"}, {"mask.hidden_value", "--hidden-value"}, {"mask.ramp_samples", "--mask-ramp-samples"},
     {"net.action_offset", "--action-offset"}, {"net.action_scale", "--action-scale"},
     {"ppo.actor_lr_schedule", "--actor-lr-schedule"}};
 
@@ -63,6 +64,10 @@ void run_train_base(const TrainBaseArgs& a) {
   if (a.lambda_mi >= 0) cfg.mask.lambda_mi = a.lambda_mi;
   if (a.mask_prob >= 0) cfg.mask.prob = a.mask_prob;
   if (a.max_parts >= 1) cfg.mask.max_parts = a.max_parts;
+  if (a.mask_warmup_samples >= 0) cfg.mask.warmup_samples = a.mask_warmup_samples;
+  if (a.mask_ramp_samples >= 0) cfg.mask.ramp_samples = a.mask_ramp_samples;
+  if (!a.mi_gradient.empty()) cfg.mask.mi_gradient = a.mi_gradient;
+  if (!a.hidden_value.empty()) cfg.mask.hidden_value = a.hidden_value;
   if (a.no_mask) cfg.mask.enabled = false;
   if (!a.action_offset.empty()) cfg.net.action_offset = a.action_offset;
   if (!a.action_scale.empty()) cfg.net.action_scale = a.action_scale;
@@ -84,6 +89,9 @@ void run_train_base(const TrainBaseArgs& a) {
     trainer.load(*resume);
     std::cout << "train-base: resumed at iteration " << trainer.iteration() << " from " << a.resume << "\n";
   }
+  trainer.add_provenance(cli::provenance_line() + (resume ? " (resumed at iteration " + std::to_string(trainer.iteration()) +
+                                                                ", sample " + std::to_string(trainer.samples()) + ")"
+                                                          : std::string()));
   const auto st = run_training(trainer, RunOptions{static_cast<bool>(resume)});
   std::cout << "train-base: done, " << trainer.iteration() << " iterations, " << trainer.samples()
             << " samples; checkpoint " << cfg.run.out_dir << "/checkpoint.bin, log " << cfg.run.out_dir << "/log.jsonl\n";
@@ -112,6 +120,18 @@ const bool registered = maskadapt::cli::register_command([](CLI::App& app) {
   c->add_option("--mask-prob", args->mask_prob, "probability of a non-empty mask per step")->check(probability());
   c->add_option("--max-parts", args->max_parts, "at most K masked parts (of the 5 body parts)")
       ->transform(integer_in(1, maskadapt::kNumParts));
+  c->add_option("--mask-warmup-samples", args->mask_warmup_samples,
+                "samples of plain AMP (mask probability 0) before masking starts (docs/training.md)")
+      ->transform(non_negative_integer());
+  c->add_option("--mask-ramp-samples", args->mask_ramp_samples,
+                "samples over which the mask probability then rises linearly to --mask-prob (0 = at once)")
+      ->transform(non_negative_integer());
+  c->add_option("--mi-gradient", args->mi_gradient,
+                "both | target_stopped | target_frozen: what L_MI's target is and whether its gradient flows through it (docs/training.md)")
+      ->check(one_of({"both", "target_stopped", "target_frozen"}));
+  c->add_option("--hidden-value", args->hidden_value,
+                "zero | mean: what the policy sees for a hidden observation element (mask.hidden_value, docs/training.md)")
+      ->check(one_of({"zero", "mean"}));
   c->add_flag("--no-mask", args->no_mask, "disable masking (plain AMP baseline)");
   CLI::Option* offset = c->add_option("--action-offset", args->action_offset,
                                       "PD target of the zero action: zero | mean_pose (of the motions) | mid_range (of the joint limits)")

@@ -59,6 +59,14 @@ const char* const kTrackingFlags[] = {"--designated", "--generator", "--texts", 
           {{}, {}, given.empty() ? std::string() : given.front()});
 }
 
+/// One line on how the composite actions become PD targets (the base's action space; scratch:
+/// the run config's).
+std::string describe_actions(const tasks::ActionSpace& s, const NetworkConfig& net) {
+  if (s.identity()) return "actions are the PD targets (identity action space)";
+  return "PD targets = offset + scale * action (net.action_offset " + net.action_offset + ", net.action_scale " +
+         net.action_scale + ")";
+}
+
 std::string data_dir() { return motion_data_dir(MASKADAPT_SOURCE_DIR "/../shared/data"); }
 
 /// The default tracking prompts: the arms-related labels of the labelled clips (the shared CMU
@@ -171,6 +179,11 @@ void run_train_residual(const Args& a) {
       c.rl.net.actor_hidden = bc.net.actor_hidden;
       c.rl.net.activation = bc.net.activation;
       c.rl.net.init_log_std = bc.net.init_log_std;
+      // (provenance: the mapping in use is the checkpoint's actor/action_* sections, read by load_base_actor)
+      c.rl.net.action_offset = bc.net.action_offset;
+      c.rl.net.action_scale = bc.net.action_scale;
+      c.rl.net.action_offset_rad = bc.net.action_offset_rad;
+      c.rl.net.action_scale_rad = bc.net.action_scale_rad;
       c.rl.env.motions = bc.env.motions;
     }
     if (!a.motions.empty()) c.rl.env.motions = a.motions;
@@ -193,8 +206,13 @@ void run_train_residual(const Args& a) {
   ThreadPool pool(static_cast<std::size_t>(c.rl.run.threads));
   MujocoHumanoidSim sim(static_cast<std::size_t>(c.rl.env.num_envs), pool);
   const Index obs_dim = observation_dim(sim.skeleton()), A = sim.skeleton().num_dofs();
-  rl::GaussianActor<float> base = c.method == "scratch" || resume ? base_actor_like(c, obs_dim, A)
-                                                                    : load_base_actor(load_checkpoint(a.base), obs_dim, A);
+  // The frozen base and its action space (PD target = offset + scale ⊙ â). Resume: placeholders,
+  // replaced by the checkpoint's base/ sections (action space included) in trainer.load. Scratch:
+  // the zero base with the config's net.action_* (identity unless the config asks otherwise).
+  if (c.method == "scratch" && !resume) resolve_action_space(c.rl, sim.skeleton(), base_lib.get());
+  FrozenBase base = resume ? FrozenBase{base_actor_like(c, obs_dim, A), {}}
+                    : c.method == "scratch" ? scratch_base(c, obs_dim, A)
+                                            : load_base_actor(load_checkpoint(a.base), obs_dim, A);
   ResidualSetup setup = make_setup(c, base_lib, new_lib, observation_parts(sim.skeleton()));
   if (c.task == "tracking") {
     require(!c.generator.empty(), "tracking needs --generator (train one with `maskadapt train-generator`)", {{}, {}, "--generator"});
@@ -209,11 +227,12 @@ void run_train_residual(const Args& a) {
   for (const auto& m : setup.masks) std::cout << " " << m.to_string();
   std::cout << ", " << setup.discriminators.size() << " discriminator(s), out " << c.rl.run.out_dir
             << ", BLAS kernel " << blas_core_name() << "\n";
-  ResidualTrainer<MujocoHumanoidSim> trainer(sim, library_reset_sampler(base_lib), base, std::move(setup), c, &pool);
+  ResidualTrainer<MujocoHumanoidSim> trainer(sim, library_reset_sampler(base_lib), std::move(base), std::move(setup), c, &pool);
   if (resume) {
     trainer.load(*resume);
     std::cout << "train-residual: resumed at iteration " << trainer.iteration() << " from " << a.resume << "\n";
   }
+  std::cout << "train-residual: " << describe_actions(trainer.policy().actions(), c.rl.net) << "\n";
   std::filesystem::create_directories(c.rl.run.out_dir);
   std::ofstream(c.rl.run.out_dir + "/residual_config.json") << to_json(c).dump(2) << "\n";
   run_training(trainer, RunOptions{static_cast<bool>(resume)});
@@ -284,7 +303,7 @@ void run_play(const PlayArgs& a, const std::string& command_line) {
   } else {
     roll.metadata.extra["mask_schedule"] = mask_spec;
   }
-  MatrixXf obs(obs_dim, 1), x, mu, goals(pol.goal_dim(), 1);
+  MatrixXf obs(obs_dim, 1), x, mu, targets_rad, goals(pol.goal_dim(), 1);
   adapt::ResidualWorkspace<float> ws;
   const PartElements pe(observation_parts(skel));
   double track_err = 0;
@@ -298,7 +317,8 @@ void run_play(const PlayArgs& a, const std::string& command_line) {
     if (pol.goal_dim() > 0) tracking::extract_goals(skel, bodies, targets, t, c.goal_steps, goals.col(0));
     pol.build_input(pe, obs, m, goals, x, ws);
     pol.mean(x, m, mu, ws);
-    sim.step(mu);
+    pol.to_targets(mu, targets_rad);  // offset + scale ⊙ â (the base's action space)
+    sim.step(targets_rad);
     const BodyStates& b = sim.body_states(0);
     out.root_pos.col(static_cast<int>(t)) = b.pos.col(0);
     out.set_rot(static_cast<int>(t), b.rot[0]);

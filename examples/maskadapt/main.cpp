@@ -27,6 +27,12 @@ int main(int argc, char** argv) {
   }
   // The trainers parallelise over envs themselves; OpenBLAS threads would fight them.
   maskadapt::limit_blas_threads(1);
+  for (int i = 0; i < argc; ++i) {
+    const std::string word = i == 0 ? "maskadapt" : argv[i];
+    auto& line = maskadapt::cli::invocation();
+    if (i) line += ' ';
+    line += word.find_first_of(" \t'\"") == std::string::npos ? word : "'" + word + "'";
+  }
   CLI::App app{"maskadapt: learn physics-based humanoid controllers that adapt parts of the body"};
   app.require_subcommand(1);
   for (auto& install : maskadapt::cli::command_installers()) install(app);

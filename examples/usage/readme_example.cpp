@@ -1,35 +1,56 @@
-// The README's usage example: step the reference humanoid with a (random, untrained) Gaussian MLP
-// policy that sees a masked observation. Built by CMake so the README never drifts from the API.
+// The README's usage example: load the shipped walking base policy (models/, a policy-only
+// export) and let it drive the reference humanoid on MuJoCo for 10 s with a part mask, from a
+// frame of the built-in synthetic walk. Built by CMake and run by ctest, so the README never drifts
+// from the API. Usage: readme_example [MODEL] [MASK]   (MASK e.g. none, arms, left_leg,right_leg)
 #include <maskadapt/humanoid/observation.hpp>
 #include <maskadapt/mask/apply.hpp>
-#include <maskadapt/nn/nn.hpp>
+#include <maskadapt/motion/library.hpp>
+#include <maskadapt/motion/synthetic.hpp>
 #include <maskadapt/sim/mujoco/humanoid_sim.hpp>
+#include <maskadapt/train/base_policy.hpp>
 
 #include <iostream>
+#include <string>
 
-int main() {
+int main(int argc, char** argv) try {
   using namespace maskadapt;
+  const std::string model = argc > 1 ? argv[1] : MASKADAPT_MODELS_DIR "/amp_walk_bandai.bin";
+  const PartMask mask = PartMask::parse(argc > 2 ? argv[2] : "none", "MASK");
+
   ThreadPool pool(2);
-  MujocoHumanoidSim sim(/*num_envs=*/4, pool);                  // 22 bodies, 63 PD-driven DoF, 30 Hz
+  MujocoHumanoidSim sim(/*num_envs=*/4, pool);                     // 22 bodies, 63 PD-driven DoF, 30 Hz
   const Skeleton& skel = sim.skeleton();
-  for (std::size_t e = 0; e < sim.num_envs(); ++e) sim.reset(e, humanoid_standing_pose());
+  const Index obs_dim = observation_dim(skel);
+  const train::LoadedBasePolicy base = train::load_base_policy(    // checks kind, dims and checksum
+      load_checkpoint(model), {obs_dim, policy_input_dim(obs_dim), skel.num_dofs(), obs_dim * kAmpWindowFrames}, model);
+  const auto& actor = base.policy.ac.actor;                        // π(a | [s̄ ; m]) with its normaliser
+  const tasks::ActionSpace& actions = base.policy.actions;         // PD target = offset + scale ⊙ a
 
-  Rng rng(7);
-  const PartElements parts(observation_parts(skel));            // every feature → its body part
-  nn::Mlp<float> policy({.inputs = policy_input_dim(kObservationDim), .hidden = {256, 256},
-                         .outputs = skel.num_dofs()}, rng);
-  const VectorXf log_std = VectorXf::Constant(skel.num_dofs(), -2.f);
-  const std::vector<PartMask> masks(sim.num_envs(), PartMask::parse("left_leg,right_leg"));
+  MotionLibrary walk;                                              // start mid-stride: a frame of the
+  walk.add(synthetic_walk());                                      // built-in walk, with its velocities
+  const KinematicState start = walk.state(0, 0.5);
+  for (std::size_t e = 0; e < sim.num_envs(); ++e) sim.reset(e, start);
 
-  MatrixXf obs(kObservationDim, sim.num_envs()), input(policy_input_dim(kObservationDim), sim.num_envs());
-  MatrixXf mean(skel.num_dofs(), sim.num_envs()), action(skel.num_dofs(), sim.num_envs());
+  const PartElements parts(observation_parts(skel));               // every feature → its body part
+  const std::vector<PartMask> masks(sim.num_envs(), mask);
+  MatrixXf obs(obs_dim, sim.num_envs()), input(policy_input_dim(obs_dim), sim.num_envs());
+  MatrixXf mean(skel.num_dofs(), sim.num_envs()), targets(skel.num_dofs(), sim.num_envs()), scratch;
   nn::InferenceWorkspace<float> ws;
-  for (int step = 0; step < 30; ++step) {                        // one second of control
+  const Vec3 from = sim.body_states(0).pos.col(0);
+  double lowest_head = 1e9;
+  for (int step = 0; step < 300; ++step) {                         // ten seconds of control
     for (std::size_t e = 0; e < sim.num_envs(); ++e) compute_observation(skel, sim.body_states(e), obs.col(e));
-    build_policy_input<float>(parts, obs, masks, input);         // [(1−m)⊙s ; m]
-    policy.forward(input, mean, ws);                             // (63 × envs), no allocation
-    nn::gaussian_sample<float>(mean, log_std, rng, action);
-    sim.step(action);                                            // PD targets (rad)
+    build_policy_input<float>(parts, obs, masks, input);           // [(1−m)⊙s ; m]
+    actor.mean(input, mean, ws, scratch);                          // deterministic actions (63 × envs)
+    actions.to_targets(mean, targets);                             // radians
+    sim.step(targets);
+    lowest_head = std::min(lowest_head, sim.body_states(0).pos(2, skel.index_of("Head")));
   }
-  std::cout << "pelvis height after 1 s: " << sim.body_states(0).pos(2, 0) << " m\n";
+  const Vec3 to = sim.body_states(0).pos.col(0);
+  std::cout << "model " << model << " (" << base.iteration << " iterations), mask " << mask.to_string() << ": walked "
+            << (to - from).head<2>().norm() << " m in 10 s; lowest head height " << lowest_head << " m\n";
+  return 0;
+} catch (const maskadapt::Error& e) {
+  std::cerr << "readme_example: " << e.what() << "\n";
+  return 1;
 }

@@ -299,3 +299,34 @@ TEST(MiLoss, GradientModeNames) {
   EXPECT_STREQ(adapt::to_string(adapt::MiGradient::TargetStopped), "target_stopped");
   EXPECT_THROW(adapt::mi_gradient_from_string("half"), Error);
 }
+
+// MiGradient::TargetFrozen: with the target μ(s, m⁰) given (the pre-update policy), the KL and
+// its gradient are the closed forms ½ Σ_i (μq − μp)²/σ² and λ/B·(μq − μp)/σ² on the columns with
+// a non-null mask, and exactly 0 on null-mask columns; nothing flows into the network here.
+TEST(MiLoss, FrozenTargetGivesTheClosedFormOnMaskedColumnsOnly) {
+  Rng rng(5);
+  MiProblem p(rng);
+  rl::GaussianActor<double> actor(p.config(false), rng);
+  const Index d = p.action_dim, B = p.batch;
+  const MatrixXd target = MatrixXd::NullaryExpr(d, B, [&] { return rng.normal(); });
+  const MatrixXd mu_masked = MatrixXd::NullaryExpr(d, B, [&] { return rng.normal(); });
+  const double lambda = 0.7, inv_var = std::exp(-2 * actor.log_std.params()[0]);
+  adapt::MiWorkspace<double> w;
+  MatrixXd dmu = MatrixXd::Zero(d, B);
+  actor.zero_grad();
+  const auto r = adapt::mi_loss_on_frozen_target<double>(actor, target, p.masked, mu_masked, lambda, w, dmu);
+  double kl = 0;
+  for (Index j = 0; j < B; ++j) {
+    const VectorXd diff = mu_masked.col(j) - target.col(j);
+    if (p.masks[static_cast<std::size_t>(j)].empty()) {
+      EXPECT_EQ(dmu.col(j).squaredNorm(), 0.0) << j;
+      continue;
+    }
+    kl += 0.5 * diff.squaredNorm() * inv_var;
+    EXPECT_LT((dmu.col(j) - lambda / static_cast<double>(B) * inv_var * diff).norm(), 1e-12) << j;
+  }
+  EXPECT_NEAR(r.kl, kl / static_cast<double>(B), 1e-12);
+  EXPECT_NEAR(r.loss, lambda * r.kl, 1e-12);
+  EXPECT_EQ(actor.mean_net.grads().squaredNorm(), 0.0);
+  EXPECT_THROW(adapt::mi_loss_on_frozen_target<double>(actor, target.leftCols(3), p.masked, mu_masked, lambda, w, dmu), Error);
+}

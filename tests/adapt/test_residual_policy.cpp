@@ -1,4 +1,5 @@
 // Residual policy: zero-init equivalence with the base, masked-DoF restriction, the null mask,
+// PD targets through the base's action space (normalised bases) and its checkpoint sections,
 // gradients vs finite differences; the mask-conditioned discriminator's inputs (blends,
 // negative experts, conditioning).
 #include <maskadapt/adapt/residual_policy.hpp>
@@ -302,4 +303,147 @@ TEST(ResidualPolicy, UnmaskedBaseInputIgnoresTheMask) {
   // both carry the mask bits
   EXPECT_EQ(x_cml(kObs + kAct + 1, 1), 1.0f);
   EXPECT_EQ(x_cml(kObs + kAct + 1, 0), 0.0f);
+}
+
+// ---- the base's action space (normalised actions) ------------------------------------------
+// (a suite of its own, defined last: its Eigen Random draws come after every other test's, so
+// running the whole binary feeds the older tests the same std::rand sequence as before)
+
+namespace {
+
+// A normalised action space for the 9 test DoFs: offset ≠ 0, scale ≠ 1 on every DoF.
+tasks::ActionSpace normalised_space() {
+  tasks::ActionSpace s;
+  s.offset.resize(kAct);
+  s.scale.resize(kAct);
+  for (Index i = 0; i < kAct; ++i) {
+    s.offset[i] = 0.1f * static_cast<float>(i) - 0.35f;
+    s.scale[i] = 0.4f + 0.15f * static_cast<float>(i);
+  }
+  return s;
+}
+
+adapt::ResidualPolicy<float> make_normalised_policy() {
+  Rng rng(3);
+  adapt::ResidualConfig rc;
+  rc.hidden = {16};
+  rc.gain = adapt::GainMode::PerDof;
+  return adapt::ResidualPolicy<float>(make_base(rng), kObs, dof_parts(), rc, rng, normalised_space());
+}
+
+}  // namespace
+
+// A base with normalised actions: the PD targets are offset + scale ⊙ â with â = w ⊙ a_base + Δa
+// on masked DoFs (all in normalised units) and exactly the base's own targets offset + scale ⊙
+// a_base elsewhere; Δa = 0 and w = 1 reproduce the base's targets bit for bit.
+TEST(ResidualPolicyActions, NormalisedBaseTargetsAreOffsetPlusScaleOfTheComposite) {
+  const tasks::ActionSpace space = normalised_space();
+  auto pol = make_normalised_policy();
+  ASSERT_FALSE(pol.actions().identity());
+  const PartElements pe(obs_parts());
+  const MatrixXf obs = MatrixXf::Random(kObs, 3);
+  const std::vector<PartMask> masks = {PartMask::none(), PartMask::of(BodyPart::LeftArm), PartMask::parse("trunk,left_leg")};
+  adapt::ResidualWorkspace<float> ws;
+  MatrixXf x, mu, targets;
+  pol.build_input(pe, obs, masks, MatrixXf(), x, ws);
+  const MatrixXf base_mu = x.middleRows(kObs, kAct);
+  // zero-initialised residual, w = 1: the base's own PD targets
+  pol.mean(x, masks, mu, ws);
+  pol.to_targets(mu, targets);
+  for (Index j = 0; j < 3; ++j)
+    for (Index i = 0; i < kAct; ++i) EXPECT_EQ(targets(i, j), space.offset[i] + space.scale[i] * base_mu(i, j)) << i << "," << j;
+  // a trained residual and per-DoF gains
+  pol.residual().mean_net.params().setRandom();
+  for (Index i = 0; i < kAct; ++i) pol.gain().params()[i] = 0.6f + 0.1f * static_cast<float>(i);
+  pol.mean(x, masks, mu, ws);
+  pol.to_targets(mu, targets);
+  MatrixXf delta(kAct, 3), scratch;
+  nn::InferenceWorkspace<float> rws;
+  pol.residual().mean(x, delta, rws, scratch);  // Δa on every row (applied on masked rows only)
+  for (Index j = 0; j < 3; ++j)
+    for (Index i = 0; i < kAct; ++i) {
+      const bool masked = masks[static_cast<std::size_t>(j)].has(dof_parts()[static_cast<std::size_t>(i)]);
+      const float a_hat = masked ? pol.gain().params()[i] * base_mu(i, j) + delta(i, j) : base_mu(i, j);
+      EXPECT_EQ(targets(i, j), space.offset[i] + space.scale[i] * a_hat) << i << "," << j;
+      if (!masked) EXPECT_EQ(targets(i, j), space.offset[i] + space.scale[i] * base_mu(i, j)) << "unmasked DoF moved";
+      else EXPECT_NE(targets(i, j), space.offset[i] + space.scale[i] * base_mu(i, j)) << "masked DoF " << i << " unchanged";
+    }
+  // the identity action space: the targets are â itself
+  const auto id = make_policy();
+  EXPECT_TRUE(id.actions().identity());
+  id.to_targets(mu, targets);
+  EXPECT_TRUE((targets.array() == mu.array()).all());
+  // a wrongly sized action space is rejected naming the field
+  tasks::ActionSpace bad = space;
+  bad.scale.conservativeResize(kAct - 1);
+  Rng rng(3);
+  try {
+    const adapt::ResidualPolicy<float> p(make_base(rng), kObs, dof_parts(), {}, rng, bad);
+    ADD_FAILURE() << "no throw";
+  } catch (const Error& e) {
+    EXPECT_EQ(e.context().field, "base.actions.scale");
+  }
+}
+
+// The base's action space travels with the base sections; an identity base writes none (its
+// checkpoint is what it was before action spaces), and a checkpoint without them loads the identity.
+TEST(ResidualPolicyActions, CheckpointCarriesTheBaseActionSpace) {
+  const auto a = make_normalised_policy();
+  Checkpoint ck;
+  a.save(ck);
+  ASSERT_TRUE(ck.contains("base/actor/action_offset") && ck.contains("base/actor/action_scale"));
+  auto b = make_policy();
+  b.load(ck);
+  EXPECT_TRUE(b.actions().offset == a.actions().offset);
+  EXPECT_TRUE(b.actions().scale == a.actions().scale);
+  Checkpoint plain;
+  make_policy().save(plain);
+  EXPECT_FALSE(plain.contains("base/actor/action_offset") || plain.contains("base/actor/action_scale"));
+  b.load(plain);
+  EXPECT_TRUE(b.actions().identity());
+  auto c = make_normalised_policy();
+  c.load(ck, false);  // residual sections only: the base (and its action space) stay
+  EXPECT_TRUE(c.actions().scale == a.actions().scale);
+}
+
+// The action-bound penalty of a normalised space is on the PD targets: its gradient with respect
+// to the (normalised) actions matches central differences of weight·Σ excess(offset + scale ⊙ a)².
+TEST(ResidualPolicyActions, BoundPenaltyIsOnTheTargets) {
+  tasks::ActionSpace space = normalised_space();
+  space.offset.array() += 2.8f;  // some targets beyond +π, none beyond −π
+  MatrixXf a(kAct, 4);
+  for (Index j = 0; j < 4; ++j)
+    for (Index i = 0; i < kAct; ++i) a(i, j) = 0.25f * static_cast<float>((i + 2 * j) % 7) - 0.5f;
+  const float bound = static_cast<float>(M_PI), w = 0.3f;
+  auto penalty = [&](const MatrixXf& x) {
+    MatrixXf t(kAct, 4);
+    space.to_targets(x, t);
+    double p = 0;
+    for (Index k = 0; k < t.size(); ++k) {
+      const double e = std::max(0.0, t(k) - static_cast<double>(bound)) + std::min(0.0, t(k) + static_cast<double>(bound));
+      p += w * e * e;
+    }
+    return p;
+  };
+  MatrixXf grad = MatrixXf::Zero(kAct, 4), work;
+  space.add_bound_penalty_grad(a, bound, w, work, grad);
+  int active = 0;
+  for (Index k = 0; k < a.size(); ++k) {
+    MatrixXf ap = a, am = a;
+    const float h = 1e-3f;
+    ap(k) += h;
+    am(k) -= h;
+    const double fd = (penalty(ap) - penalty(am)) / (2.0 * h);
+    EXPECT_NEAR(grad(k), fd, 1e-2 * (1 + std::abs(fd))) << k;
+    active += grad(k) != 0.0f;
+  }
+  EXPECT_GT(active, 0);
+  EXPECT_LT(active, a.size());
+  // the identity: the targets are a itself (the old penalty on μ)
+  const tasks::ActionSpace id;
+  MatrixXf g_id = MatrixXf::Zero(kAct, 4);
+  const MatrixXf big = a * 5.0f;
+  id.add_bound_penalty_grad(big, bound, w, work, g_id);
+  const MatrixXf old = w * ((big.array() - bound).max(0.0f) + (big.array() + bound).min(0.0f)) * 2.0f;
+  EXPECT_TRUE((g_id.array() == old.array()).all());
 }

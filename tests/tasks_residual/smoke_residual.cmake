@@ -2,7 +2,8 @@
 # Stage 2 end to end on the MuJoCo humanoid with tiny sizes: a 1-iteration base, train-residual
 # composition (ours and cml) and tracking (with a 2-iteration generator), a resume, play-residual
 # with a mask schedule and with a text schedule (BVH + viewer rollout), and eval-residual for both
-# tasks (shrunk). Every output must exist and parse.
+# tasks (shrunk), and a composition run + resume + play + eval on a base with normalised actions.
+# Every output must exist and parse.
 file(REMOVE_RECURSE ${OUT})
 file(MAKE_DIRECTORY ${OUT})
 function(run what)
@@ -88,4 +89,24 @@ run("eval-residual tracking" eval-residual ${OUT}/track/checkpoint.bin --num-pro
 require_json(${OUT}/eval_track.json)
 file(READ ${OUT}/eval_track.json j)
 string(JSON sr GET "${j}" result success_rate)
+# A base with normalised actions (PD target = offset + scale ⊙ a): stage 2 composes in its units
+# and maps â the same way in training, after a resume, in play and in eval.
+run("train-base normalised" train-base --config ${CONFIG} --iterations 1 --envs 2 --threads 1 --motions walk
+    --action-offset mean_pose --action-scale half_range --out ${OUT}/base_norm)
+foreach(step 1 2)
+  if(step EQUAL 1)
+    run("train-residual on the normalised base" train-residual --task composition --base ${OUT}/base_norm/checkpoint.bin
+        --new-motion kick --masks lower_body --iterations 1 ${tiny} --out ${OUT}/comp_norm)
+  else()
+    run("train-residual --resume (normalised base)" train-residual --resume ${OUT}/comp_norm/checkpoint.bin --iterations 2
+        --out ${OUT}/comp_norm)
+  endif()
+  if(NOT LAST_OUTPUT MATCHES "PD targets = offset \\+ scale \\* action \\(net.action_offset mean_pose, net.action_scale half_range\\)")
+    message(FATAL_ERROR "train-residual (step ${step}) does not report the base's action space:\n${LAST_OUTPUT}")
+  endif()
+endforeach()
+run("play-residual (normalised base)" play-residual ${OUT}/comp_norm/checkpoint.bin --seconds 0.5 --bvh ${OUT}/comp_norm.bvh)
+run("eval-residual (normalised base)" eval-residual ${OUT}/comp_norm/checkpoint.bin --envs 2 --frames 10 --out ${OUT}/eval_norm.json)
+require_json(${OUT}/eval_norm.json)
+
 message(STATUS "stage-2 CLI smoke OK: composition ours/cml + resume, tracking, play (mask/text), eval (H_norm adapted ${h}, success ${sr})")

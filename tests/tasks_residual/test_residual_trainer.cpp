@@ -1,7 +1,10 @@
 // The stage-2 trainer on the tiny analytic simulator: the frozen base stays bit-identical, the
-// residual moves, and composition (ours, cml) and tracking runs produce finite statistics.
+// residual moves, and composition (ours, cml) and tracking runs produce finite statistics; a base
+// with normalised actions gets offset + scale ⊙ â as PD targets (training, scratch, evaluation)
+// and resumes bit-exactly.
 #include "../train/tiny_sim.hpp"
 
+#include <maskadapt/train/residual_eval.hpp>
 #include <maskadapt/train/residual_trainer.hpp>
 
 #include <gtest/gtest.h>
@@ -300,4 +303,270 @@ TEST(ResidualTrainer, TrackingTerminationResetsTheEnv) {
   EXPECT_EQ(st.extra.at("tracking_terminations"), 4 * 2);
   for (long long steps : tr.task().episode_steps()) EXPECT_EQ(steps, 2);  // 8 − 6 steps since the last reset
   EXPECT_TRUE(st.extra.count("tracking_reward"));
+}
+
+// ---- bases with normalised actions (PD target = offset + scale ⊙ a) ---------------------------
+
+namespace {
+
+// The tiny walker, remembering every step's PD targets and the observations it was stepped from.
+class RecordingSim : public TinyWalkerSim {
+ public:
+  using TinyWalkerSim::TinyWalkerSim;
+  void step(const Eigen::Ref<const MatrixXf>& targets) {
+    MatrixXf obs(observation_dim(skeleton()), targets.cols());
+    for (Index e = 0; e < targets.cols(); ++e) compute_observation(skeleton(), body_states(static_cast<std::size_t>(e)), obs.col(e));
+    before.push_back(obs);
+    sent.push_back(targets);
+    TinyWalkerSim::step(targets);
+  }
+  std::vector<MatrixXf> sent, before;  ///< per step: targets (num_dofs × N), observations (obs_dim × N)
+};
+static_assert(tasks::StateSavingSimulator<RecordingSim>);
+
+// offset ≠ 0 and scale ≠ 1 on every DoF of the tiny walker (15 DoFs).
+tasks::ActionSpace tiny_space(const Skeleton& skel) {
+  tasks::ActionSpace s;
+  const Index A = skel.num_dofs();
+  s.offset.resize(A);
+  s.scale.resize(A);
+  for (Index i = 0; i < A; ++i) {
+    s.offset[i] = 0.05f * static_cast<float>(i % 5) - 0.1f;
+    s.scale[i] = 0.5f + 0.1f * static_cast<float>(i % 4);
+  }
+  return s;
+}
+
+FrozenBase normalised_base(const Skeleton& skel) { return {tiny_base(skel), tiny_space(skel)}; }
+
+FallCriteria tiny_fall(const Skeleton& skel) { return FallCriteria::for_skeleton(skel, {"l_leg", "r_leg"}, "head", 0.8); }
+
+bool same_bits(const MatrixXf& a, const MatrixXf& b) {
+  return a.rows() == b.rows() && a.cols() == b.cols() &&
+         std::memcmp(a.data(), b.data(), sizeof(float) * static_cast<std::size_t>(a.size())) == 0;
+}
+
+// offset + scale ⊙ a, column by column (the expected PD targets).
+MatrixXf mapped(const tasks::ActionSpace& s, const MatrixXf& a) {
+  MatrixXf t(a.rows(), a.cols());
+  for (Index j = 0; j < a.cols(); ++j)
+    for (Index i = 0; i < a.rows(); ++i) t(i, j) = s.offset[i] + s.scale[i] * a(i, j);
+  return t;
+}
+
+}  // namespace
+
+// One iteration per method/task: every step the simulator receives exactly offset + scale ⊙ â of
+// the rollout's composite actions â (a bare actor: the identity, â itself). Scratch takes the run
+// config's action space (here half_range: 2 rad per unit on the tiny walker's ±2 rad joints).
+TEST(ResidualTrainer, NormalisedBaseSendsOffsetPlusScaleOfTheCompositeToTheSimulator) {
+  struct Case {
+    std::string task, method;
+    bool identity;
+  };
+  for (const Case& k : {Case{"composition", "ours", false}, Case{"composition", "cml", false}, Case{"composition", "scratch", false},
+                        Case{"tracking", "ours", false}, Case{"tracking", "cml", false}, Case{"composition", "ours", true}}) {
+    const std::string what = k.task + "/" + k.method + (k.identity ? "/identity" : "");
+    Data d;
+    RecordingSim sim(4);
+    const auto parts = observation_parts(sim.skeleton());
+    auto cfg = tiny_config(k.task, k.method);
+    ResidualSetup setup = k.task == "tracking" ? tracking_setup(d, parts) : composition_setup(d, k.method == "ours" ? "ours" : "cml", parts);
+    FrozenBase base = normalised_base(sim.skeleton());
+    if (k.method == "scratch") {
+      setup.masks = {PartMask::all()};
+      cfg.rl.net.action_scale = "half_range";
+      EXPECT_THROW(scratch_base(cfg, observation_dim(sim.skeleton()), sim.skeleton().num_dofs()), Error);  // unresolved
+      resolve_action_space(cfg.rl, sim.skeleton(), nullptr);
+      base = scratch_base(cfg, observation_dim(sim.skeleton()), sim.skeleton().num_dofs());
+      ASSERT_EQ(base.actions.offset.size(), 0);
+      ASSERT_EQ(base.actions.scale.size(), sim.skeleton().num_dofs());
+      EXPECT_TRUE((base.actions.scale.array() == 2.0f).all());
+      base.actions.offset = tiny_space(sim.skeleton()).offset;  // (and an offset, to cover both)
+    }
+    std::unique_ptr<ResidualTrainer<RecordingSim>> tr =
+        k.identity ? std::make_unique<ResidualTrainer<RecordingSim>>(sim, upright(sim.skeleton()), tiny_base(sim.skeleton()), setup, cfg,
+                                                                     nullptr, tiny_fall(sim.skeleton()))
+                   : std::make_unique<ResidualTrainer<RecordingSim>>(sim, upright(sim.skeleton()), base, setup, cfg, nullptr,
+                                                                     tiny_fall(sim.skeleton()));
+    EXPECT_EQ(tr->policy().actions().identity(), k.identity) << what;
+    tr->iterate();
+    const auto& buf = tr->rollout();
+    ASSERT_EQ(static_cast<Index>(sim.sent.size()), cfg.rl.ppo.horizon) << what;
+    for (Index t = 0; t < cfg.rl.ppo.horizon; ++t) {
+      const MatrixXf a_hat = buf.actions.middleCols(buf.step_begin(t), 4);
+      const MatrixXf expected = k.identity ? a_hat : mapped(tr->policy().actions(), a_hat);
+      EXPECT_TRUE(same_bits(sim.sent[static_cast<std::size_t>(t)], expected)) << what << " step " << t;
+    }
+  }
+}
+
+// Evaluation (residual_eval.hpp) on a normalised base: with Δa = 0 and w = 1 every frame's targets
+// equal those of the base alone (its own offset + scale ⊙ a_base rollout, bit for bit); with a
+// trained residual and w ≠ 1 they are offset + scale ⊙ (w·a_base + Δa) on the masked DoFs and
+// exactly the base's targets on the others. Tracking evaluation maps its actions the same way.
+TEST(ResidualEval, NormalisedBaseTargetsAreTheBasesOwnUntilTheResidualActsOnMaskedDofs) {
+  Data d;
+  const Skeleton& skel = d.skel;
+  const tasks::ActionSpace space = tiny_space(skel);
+  const auto parts = observation_parts(skel);
+  const PartElements pe(parts);
+  const PartMask arms = PartMask::parse("arms");
+  adapt::ResidualConfig rc;
+  rc.hidden = {16};
+  rc.gain = adapt::GainMode::PerDof;
+  Rng init(2);
+  adapt::ResidualPolicy<float> pol(tiny_base(skel), observation_dim(skel), action_parts(skel), rc, init, space);
+  CompositionEvalOptions opt;
+  opt.frames = 12;
+
+  // Δa = 0, w = 1: the base's own rollout
+  RecordingSim sim_res(3), sim_base(3);
+  (void)evaluate_composition(sim_res, pol, arms, d.base, d.added, upright(skel), tiny_fall(skel), opt);
+  {
+    tasks::ImitationTaskConfig tc;
+    tc.fall = tiny_fall(skel);
+    tc.episode_seconds = opt.episode_seconds;
+    tc.masking = false;
+    tc.actions = space;
+    tasks::ImitationTask<RecordingSim> task(sim_base, upright(skel), tc, opt.seed);
+    const std::vector<PartMask> masks(3, arms);
+    MatrixXf in, mu, scratch;
+    nn::InferenceWorkspace<float> ws;
+    for (Index f = 0; f < opt.frames; ++f) {
+      in = policy_input<float>(pe, task.observations(), masks);
+      mu.resize(skel.num_dofs(), 3);
+      pol.base().mean(in, mu, ws, scratch);
+      task.step(mu);
+    }
+  }
+  ASSERT_EQ(sim_res.sent.size(), sim_base.sent.size());
+  for (std::size_t f = 0; f < sim_res.sent.size(); ++f) EXPECT_TRUE(same_bits(sim_res.sent[f], sim_base.sent[f])) << "frame " << f;
+
+  // a trained residual, per-DoF gains ≠ 1: the first frame (same observations as the base's)
+  Rng fill(4);
+  for (Index i = 0; i < pol.residual().mean_net.params().size(); ++i)
+    pol.residual().mean_net.params()[i] = static_cast<float>(fill.uniform(-0.5, 0.5));
+  for (Index i = 0; i < pol.gain().params().size(); ++i) pol.gain().params()[i] = 0.7f + 0.05f * static_cast<float>(i);
+  RecordingSim sim_trained(3);
+  (void)evaluate_composition(sim_trained, pol, arms, d.base, d.added, upright(skel), tiny_fall(skel), opt);
+  const MatrixXf& obs0 = sim_trained.before.front();
+  ASSERT_TRUE(same_bits(obs0, sim_base.before.front()));
+  const std::vector<PartMask> masks(3, arms);
+  adapt::ResidualWorkspace<float> ws;
+  MatrixXf x, delta, scratch;
+  pol.build_input(pe, obs0, masks, MatrixXf(0, 3), x, ws);
+  const MatrixXf a_base = x.middleRows(obs0.rows(), skel.num_dofs());
+  nn::InferenceWorkspace<float> rws;
+  delta.resize(skel.num_dofs(), 3);
+  pol.residual().mean(x, delta, rws, scratch);
+  const auto dof_parts = action_parts(skel);
+  int masked_rows = 0;
+  for (Index j = 0; j < 3; ++j)
+    for (Index i = 0; i < skel.num_dofs(); ++i) {
+      const float got = sim_trained.sent.front()(i, j), own = sim_base.sent.front()(i, j);
+      if (arms.has(dof_parts[static_cast<std::size_t>(i)])) {
+        ++masked_rows;
+        EXPECT_EQ(got, space.offset[i] + space.scale[i] * (pol.gain().params()[i] * a_base(i, j) + delta(i, j))) << i;
+        EXPECT_NE(got, own) << "masked DoF " << i << " kept the base's target";
+      } else {
+        EXPECT_EQ(got, own) << "unmasked DoF " << i << " moved";
+      }
+    }
+  EXPECT_EQ(masked_rows, 3 * 6);  // two arms × 3 hinges per env
+
+  // tracking evaluation: Δa = 0, w = 1 ⇒ every step's targets = offset + scale ⊙ a_base(s̄, m)
+  adapt::ResidualConfig tc = rc;
+  tc.goal_dim = tracking::goal_dim(skel, arms, 2);
+  Rng init2(2);
+  const adapt::ResidualPolicy<float> track(tiny_base(skel), observation_dim(skel), action_parts(skel), tc, init2, space);
+  TinyGenerator gen;
+  TrackingEvalOptions topt;
+  topt.prompts = {"raise arms"};
+  topt.repeats = 2;
+  topt.seconds = 0.3;
+  RecordingSim sim_track(2);
+  (void)evaluate_tracking(sim_track, track, gen, arms, 2, d.base, tiny_fall(skel), topt);
+  ASSERT_FALSE(sim_track.sent.empty());
+  const std::vector<PartMask> tm(2, arms);
+  for (std::size_t t = 0; t < sim_track.sent.size(); ++t) {
+    MatrixXf in, mu(skel.num_dofs(), 2), sc;
+    nn::InferenceWorkspace<float> bws;
+    in = policy_input<float>(pe, sim_track.before[t], tm);
+    track.base().mean(in, mu, bws, sc);
+    EXPECT_TRUE(same_bits(sim_track.sent[t], mapped(space, mu))) << "tracking step " << t;
+  }
+}
+
+// Identity bases are untouched: a bare actor and FrozenBase{actor, identity} train the same bits,
+// and the checkpoint holds no action-space sections (it is the checkpoint of before).
+TEST(ResidualTrainer, IdentityBaseWritesNoActionSpace) {
+  Data d;
+  std::vector<std::vector<std::uint8_t>> bytes;
+  for (bool frozen : {false, true}) {
+    TinyWalkerSim sim(4);
+    const auto parts = observation_parts(sim.skeleton());
+    std::unique_ptr<ResidualTrainer<TinyWalkerSim>> tr =
+        frozen ? std::make_unique<ResidualTrainer<TinyWalkerSim>>(sim, upright(sim.skeleton()), FrozenBase{tiny_base(sim.skeleton()), {}},
+                                                                  composition_setup(d, "ours", parts), tiny_config("composition", "ours"),
+                                                                  nullptr, tiny_fall(sim.skeleton()))
+               : std::make_unique<ResidualTrainer<TinyWalkerSim>>(sim, upright(sim.skeleton()), tiny_base(sim.skeleton()),
+                                                                  composition_setup(d, "ours", parts), tiny_config("composition", "ours"),
+                                                                  nullptr, tiny_fall(sim.skeleton()));
+    tr->iterate();
+    tr->iterate();
+    Checkpoint ck;
+    tr->save(ck);
+    for (const auto& n : ck.names()) EXPECT_EQ(n.find("action_"), std::string::npos) << n;
+    bytes.push_back(serialize_checkpoint(ck));
+  }
+  EXPECT_TRUE(bytes[0] == bytes[1]);
+}
+
+// A normalised base resumes bit-exactly, and the resumed trainer gets its action space from the
+// checkpoint: it is built like `train-residual --resume` builds it, on a placeholder identity base.
+TEST(ResidualTrainer, NormalisedBaseResumesBitExactlyWithTheCheckpointsActionSpace) {
+  MASKADAPT_REQUIRE_REQUESTED_BLAS_CORE();
+  for (const std::string task : {"composition", "tracking"}) {
+    Data d;
+    auto make = [&](RecordingSim& sim, bool placeholder) {
+      const auto parts = observation_parts(sim.skeleton());
+      FrozenBase base = placeholder ? FrozenBase{tiny_base(sim.skeleton()), {}} : normalised_base(sim.skeleton());
+      return std::make_unique<ResidualTrainer<RecordingSim>>(
+          sim, upright(sim.skeleton()), std::move(base),
+          task == "tracking" ? tracking_setup(d, parts) : composition_setup(d, "ours", parts), tiny_config(task, "ours"), nullptr,
+          tiny_fall(sim.skeleton()));
+    };
+    RecordingSim sim_a(4), sim_b(4), sim_c(4);
+    auto straight = make(sim_a, false);
+    std::vector<IterationStats> ref;
+    for (int i = 0; i < 4; ++i) ref.push_back(straight->iterate());
+    auto first = make(sim_b, false);
+    first->iterate();
+    first->iterate();
+    Checkpoint ck;
+    first->save(ck);
+    ASSERT_TRUE(ck.contains("base/actor/action_offset") && ck.contains("base/actor/action_scale"));
+    auto resumed = make(sim_c, true);
+    ASSERT_TRUE(resumed->policy().actions().identity());
+    resumed->load(ck);
+    EXPECT_TRUE(resumed->policy().actions().offset == tiny_space(sim_c.skeleton()).offset) << task;
+    EXPECT_TRUE(resumed->policy().actions().scale == tiny_space(sim_c.skeleton()).scale) << task;
+    for (int i = 2; i < 4; ++i) {
+      const IterationStats st = resumed->iterate();
+      const auto& r = ref[static_cast<std::size_t>(i)];
+      EXPECT_EQ(st.policy_loss, r.policy_loss) << task << " iteration " << i + 1;
+      EXPECT_EQ(st.disc_loss, r.disc_loss) << task << " iteration " << i + 1;
+      EXPECT_EQ(st.disc_reward, r.disc_reward) << task << " iteration " << i + 1;
+      EXPECT_EQ(st.extra, r.extra) << task << " iteration " << i + 1;
+    }
+    // the PD targets of the resumed half are those of the straight run's second half
+    ASSERT_EQ(sim_c.sent.size() * 2, sim_a.sent.size());
+    for (std::size_t t = 0; t < sim_c.sent.size(); ++t)
+      EXPECT_TRUE(same_bits(sim_c.sent[t], sim_a.sent[t + sim_c.sent.size()])) << task << " step " << t;
+    Checkpoint a, b;
+    straight->save(a);
+    resumed->save(b);
+    EXPECT_TRUE(serialize_checkpoint(a) == serialize_checkpoint(b)) << task;
+  }
 }

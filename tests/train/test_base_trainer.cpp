@@ -87,9 +87,11 @@ Checkpoint snapshot(const BaseTrainer<TinyWalkerSim>& t) {
   return c;
 }
 
+// (provenance/ sections — command lines, wall time — describe the run and are not compared)
 void expect_bit_identical(const Checkpoint& a, const Checkpoint& b) {
   ASSERT_EQ(a.names(), b.names());
   for (const auto& name : a.names()) {
+    if (name.starts_with("provenance/")) continue;
     const auto& sa = a.section(name);
     const auto& sb = b.section(name);
     ASSERT_EQ(sa.shape, sb.shape) << name;
@@ -137,6 +139,102 @@ TEST(BaseTrainer, ResumeIsBitExact) {
   expect_resume_is_bit_exact(tiny_config());
 }
 
+// Masking curriculum (mask.warmup_samples / ramp_samples): before the warm-up ends the run is the
+// same, bit for bit, as one with mask probability 0 (so a p = 0 run resumed with a warm-up that has
+// not ended yet equals one run with that warm-up from the start); afterwards masks are drawn with
+// the configured p; and a resume across the switch stays bit-exact.
+TEST(BaseTrainer, MaskWarmupIsPlainAmpUntilItEndsThenMasks) {
+  MASKADAPT_REQUIRE_REQUESTED_BLAS_CORE();
+  auto cfg = tiny_config();
+  cfg.mask.prob = 1.0;
+  cfg.mask.warmup_samples = 64;  // 2 iterations of 4 envs × horizon 8
+  TinyRun warm(cfg);
+  auto p0 = cfg;
+  p0.mask.prob = 0.0;
+  p0.mask.warmup_samples = 0;
+  TinyRun zero(p0);
+  for (int i = 0; i < 2; ++i) {
+    const IterationStats a = warm.trainer.iterate(), b = zero.trainer.iterate();
+    EXPECT_EQ(a.extra.at("mask_prob"), 0.0);
+    EXPECT_EQ(a.mask_fraction, 0.0);
+    EXPECT_EQ(a.mi_kl, 0.0);
+    EXPECT_EQ(a.policy_loss, b.policy_loss);
+  }
+  Checkpoint a = snapshot(warm.trainer), b = snapshot(zero.trainer);
+  a.erase("config");
+  b.erase("config");
+  expect_bit_identical(a, b);
+  double masked = 0;
+  for (int i = 0; i < 8; ++i) {
+    const IterationStats st = warm.trainer.iterate();
+    EXPECT_EQ(st.extra.at("mask_prob"), 1.0);
+    masked = std::max(masked, st.mask_fraction);
+  }
+  EXPECT_GT(masked, 0.5) << "episodes started after the warm-up must be masked (p = 1)";
+  expect_resume_is_bit_exact(cfg);  // resumed at iteration 2 = sample 64, masking from there
+}
+
+// mask.hidden_value = mean: the actor sees a hidden element as its running mean (0 after
+// normalisation) and the mask flags as 0/1; its statistics come from unmasked inputs only (so the
+// flag rows' mean stays 0 although every episode is masked); the groups are saved with the policy,
+// restored by load_policy, and a resume stays bit-exact.
+TEST(BaseTrainer, HiddenValueMeanPutsHiddenElementsAtTheirMean) {
+  MASKADAPT_REQUIRE_REQUESTED_BLAS_CORE();
+  auto cfg = tiny_config();
+  cfg.mask.prob = 1.0;
+  cfg.mask.hidden_value = "mean";
+  TinyRun run(cfg);
+  for (int i = 0; i < 2; ++i) run.trainer.iterate();
+  const auto& actor = run.trainer.policy().ac.actor;
+  const auto& parts = run.trainer.task().obs_parts();
+  ASSERT_EQ(actor.hidden_groups.size(), parts.size());
+  const Index n = static_cast<Index>(parts.size());
+  EXPECT_EQ(actor.normalizer.mean().tail(kNumParts).cwiseAbs().maxCoeff(), 0.0) << "statistics from [s ; 0] only";
+  // a column with the legs hidden: those rows read 0, the flags pass through, the rest is normalised
+  const PartMask legs = PartMask::parse("legs");
+  MatrixXf x = MatrixXf::Random(n + kNumParts, 1);
+  x.bottomRows(kNumParts).col(0) = Eigen::Map<const VectorXf>(legs.as_array<float>().data(), kNumParts);
+  MatrixXf plain(x.rows(), x.cols()), out;
+  actor.normalizer.normalize(x, plain);
+  actor.normalize(x, out);
+  for (Index i = 0; i < n; ++i) {
+    if (legs.has(parts[static_cast<std::size_t>(i)])) EXPECT_EQ(out(i, 0), 0.0f) << i;
+    else EXPECT_EQ(out(i, 0), plain(i, 0)) << i;
+  }
+  EXPECT_EQ(out.bottomRows(kNumParts), x.bottomRows(kNumParts));
+  // saved and restored with the policy
+  BasePolicy back = run.trainer.policy();
+  back.ac.actor.hidden_groups.clear();
+  load_policy(snapshot(run.trainer), back);
+  EXPECT_EQ(back.ac.actor.hidden_groups, actor.hidden_groups);
+  expect_resume_is_bit_exact(cfg);
+  // the default (zero) leaves every row to the normaliser
+  TinyRun zero(tiny_config());
+  EXPECT_TRUE(zero.trainer.policy().ac.actor.hidden_groups.empty());
+}
+
+// provenance/history and provenance/train_seconds survive a resume, and a checkpoint without
+// them (written before they existed) says so instead of inventing a history or a time.
+TEST(BaseTrainer, ProvenanceIsCarriedAcrossResumes) {
+  TinyRun first(tiny_config());
+  first.trainer.add_provenance("chunk 1");
+  first.trainer.iterate();
+  const double seconds = first.trainer.train_seconds();
+  EXPECT_GT(seconds, 0.0);
+  Checkpoint c = snapshot(first.trainer);
+  TinyRun second(tiny_config());
+  second.trainer.load(c);
+  second.trainer.add_provenance("chunk 2");
+  EXPECT_EQ(second.trainer.provenance(), "chunk 1\nchunk 2\n");
+  EXPECT_EQ(second.trainer.train_seconds(), seconds);
+  c.erase("provenance/history");
+  c.erase("provenance/train_seconds");
+  TinyRun old(tiny_config());
+  old.trainer.load(c);
+  EXPECT_NE(old.trainer.provenance().find("predate"), std::string::npos);
+  EXPECT_TRUE(std::isnan(old.trainer.train_seconds()));
+}
+
 // ppo.actor_lr_schedule = adaptive: the rate follows the minibatch KL (here it must move: the
 // tiny problem's steps are far from the 0.01 target), is logged, and is part of the resumed state.
 TEST(BaseTrainer, AdaptiveLearningRateMovesAndResumesBitExactly) {
@@ -156,7 +254,7 @@ TEST(BaseTrainer, AdaptiveLearningRateMovesAndResumesBitExactly) {
 
 // Normalised actions (net.action_offset mid_range, net.action_scale half_range): resolved from
 // the skeleton's limits in closed form, saved with the policy, restored by load_policy, and a
-// resume stays bit-exact. Stage 2 refuses such a base with a message naming the section.
+// resume stays bit-exact. Stage 2's load_base_actor returns the same action space with the actor.
 TEST(BaseTrainer, NormalisedActionsAreResolvedSavedAndResumed) {
   MASKADAPT_REQUIRE_REQUESTED_BLAS_CORE();
   auto cfg = tiny_config();
@@ -188,7 +286,10 @@ TEST(BaseTrainer, NormalisedActionsAreResolvedSavedAndResumed) {
   load_policy(c, loaded);
   EXPECT_TRUE(loaded.actions.offset == run.trainer.policy().actions.offset);
   EXPECT_TRUE(loaded.actions.scale == run.trainer.policy().actions.scale);
-  EXPECT_THROW(load_base_actor(c, observation_dim(skel), skel.num_dofs()), Error);  // stage 2 refuses it
+  const FrozenBase frozen = load_base_actor(c, observation_dim(skel), skel.num_dofs());
+  EXPECT_TRUE(frozen.actions.offset == run.trainer.policy().actions.offset);
+  EXPECT_TRUE(frozen.actions.scale == run.trainer.policy().actions.scale);
+  EXPECT_TRUE(frozen.actor.mean_net.params() == run.trainer.policy().ac.actor.mean_net.params());
   expect_resume_is_bit_exact(cfg);
 }
 

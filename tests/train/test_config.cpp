@@ -109,6 +109,34 @@ TEST(TrainConfig, ErrorsNameTheFieldAndFile) {
   EXPECT_EQ(error_field(R"({"ppo": {"horizon": 32}})"), "");  // valid: nothing thrown
 }
 
+// The masking curriculum's probability in closed form: 0 before the warm-up, a linear ramp, then p.
+TEST(TrainConfig, MaskProbabilityFollowsTheWarmupAndRamp) {
+  MaskConfig m;
+  m.prob = 0.8;
+  EXPECT_EQ(mask_prob_at(m, 0), 0.8);  // no curriculum: p from the start
+  m.warmup_samples = 1000;
+  EXPECT_EQ(mask_prob_at(m, 999), 0.0);
+  EXPECT_EQ(mask_prob_at(m, 1000), 0.8);  // ramp 0: at once
+  m.ramp_samples = 400;
+  EXPECT_EQ(mask_prob_at(m, 1000), 0.0);
+  EXPECT_DOUBLE_EQ(mask_prob_at(m, 1100), 0.2);
+  EXPECT_DOUBLE_EQ(mask_prob_at(m, 1300), 0.6);
+  EXPECT_EQ(mask_prob_at(m, 1400), 0.8);
+  EXPECT_EQ(mask_prob_at(m, 1 << 30), 0.8);
+  BaseTrainConfig c;
+  c.mask = m;
+  const auto back = config_from_json(to_json(c));
+  EXPECT_EQ(back.mask.warmup_samples, 1000);
+  EXPECT_EQ(back.mask.ramp_samples, 400);
+  EXPECT_EQ(error_field(R"({"mask": {"warmup_samples": -1}})"), "mask.warmup_samples");
+  EXPECT_EQ(error_field(R"({"mask": {"ramp_samples": 1.5}})"), "mask.ramp_samples");
+  EXPECT_EQ(error_field(R"({"mask": {"hidden_value": "median"}})"), "mask.hidden_value");
+  EXPECT_EQ(error_field(R"({"mask": {"mi_gradient": "frozen"}})"), "mask.mi_gradient");
+  EXPECT_EQ(error_field(R"({"mask": {"mi_gradient": "target_frozen", "hidden_value": "mean"}})"), "");
+  c.mask.hidden_value = "mean";
+  EXPECT_EQ(config_from_json(to_json(c)).mask.hidden_value, "mean");
+}
+
 TEST(TrainConfig, SyntaxErrorsGiveTheLine) {
   try {
     config_from_string("{\n  \"ppo\": {\n    \"clip\": 0.2,,\n  }\n}", "bad.json");

@@ -176,6 +176,28 @@ TEST(EvalBase, HNormReachesItsClosedFormExtremes) {
   EXPECT_LE(all.fall_rate, 1.0);
   EXPECT_GT(all.mean_episode_length, 0.0);
   EXPECT_LE(all.mean_episode_length, 0.2 + 1e-9);
+  EXPECT_TRUE(std::isfinite(all.mean_speed));
+  EXPECT_GE(all.mean_speed, 0.0);
+}
+
+// The clips' mean speed is their summed horizontal root path over their summed duration: a 2-s
+// clip at 1.5 m/s (with a vertical bob that must not count) and a 1-s clip standing still → 1 m/s.
+TEST(EvalBase, ReferenceSpeedIsTheClipsHorizontalPathOverTheirDuration) {
+  auto straight = [](int frames, double speed) {
+    MotionClip c;
+    c.name = "straight";
+    c.fps = 30;
+    c.resize(frames, humanoid_skeleton().num_dofs());
+    for (int t = 0; t < frames; ++t) {
+      c.root_pos.col(t) = Vec3(speed * t / 30.0, 0, 0.9 + 0.05 * std::sin(t));
+      c.set_rot(t, Quat::Identity());
+    }
+    return c;
+  };
+  MotionLibrary lib;
+  lib.add(straight(61, 1.5));
+  lib.add(straight(31, 0.0));
+  EXPECT_NEAR(reference_mean_speed(lib), 1.0, 1e-12);
 }
 
 TEST(EvalBase, TableHasTheUpperTriangularShapeAndJsonMatchesTheRows) {

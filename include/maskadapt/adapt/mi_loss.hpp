@@ -22,6 +22,10 @@
 ///    has more non-zero features), so on a fixed batch KL grows geometrically under Adam
 ///    (59 → 130 in 200 steps at lr 1e-5, → 4·10⁴ at 1e-4), while the exact gradient lowers it
 ///    (59 → 18). Choose `TargetStopped` to reproduce the paper's formulation literally.
+///  - `TargetFrozen` — p is the policy as it was when the iteration's update began (μ(s, m⁰) of
+///    the pre-update parameters, computed once per iteration, like PPO's old log-probs): a
+///    constant target that does not move while q is pulled towards it (mi_loss_on_frozen_target).
+///    Measured on a walking base in docs/results.md.
 ///
 /// Input layout assumed by `unmasked_policy_input` / `masked_policy_input`: the policy input is
 /// [s ; mask bits] with one 0/1 row per body part (null mask = all zeros), as mask/apply.hpp
@@ -40,14 +44,17 @@
 namespace maskadapt::adapt {
 
 /// Which distributions the MI gradient flows through (see the file comment).
-enum class MiGradient { Both, TargetStopped };
+enum class MiGradient { Both, TargetStopped, TargetFrozen };
 
 inline MiGradient mi_gradient_from_string(const std::string& s, const std::string& field = "mi_gradient") {
   if (s == "both") return MiGradient::Both;
   if (s == "target_stopped") return MiGradient::TargetStopped;
-  throw Error("unknown MI gradient mode '" + s + "' (expected both or target_stopped)", {{}, {}, field});
+  if (s == "target_frozen") return MiGradient::TargetFrozen;
+  throw Error("unknown MI gradient mode '" + s + "' (expected both, target_stopped or target_frozen)", {{}, {}, field});
 }
-inline const char* to_string(MiGradient g) { return g == MiGradient::Both ? "both" : "target_stopped"; }
+inline const char* to_string(MiGradient g) {
+  return g == MiGradient::Both ? "both" : g == MiGradient::TargetStopped ? "target_stopped" : "target_frozen";
+}
 
 /// λ_MI (paper: 1.0; 0 disables).
 struct MiLossConfig {
@@ -158,6 +165,51 @@ MiLossResult mi_loss_on_masked_pass(rl::GaussianActor<T>& actor,
   if (lambda > 0) {
     for (Index k = 0; k < K; ++k) dmu_masked.col(w.cols[static_cast<std::size_t>(k)]) += w.dmu_k.col(k);
     if (through_target) actor.mean_net.backward(w.cache_full, w.dmu_full, actor.mean_net.grads());
+    if (actor.learn_log_std) actor.log_std.grads() += w.dlog_std.col(0);
+  }
+  return r;
+}
+
+/// The MI term against a frozen target (MiGradient::TargetFrozen): `mu_target` (d × B) holds
+/// μ(s, m⁰) of the policy as it was before this iteration's update, for the minibatch's columns;
+/// `masked_input` = [s̄ ; m] and `mu_masked` (d × B) are the surrogate's masked pass. Only the
+/// columns with a non-null mask contribute (the null mask gives q = the current unmasked policy,
+/// which PPO alone moves). L_MI is the mean over all B columns; ADDS λ·∂L_MI/∂μ_masked into
+/// `dmu_masked` (d × B) and the log-std gradient into actor.log_std.grads() when it is learned.
+template <class T>
+MiLossResult mi_loss_on_frozen_target(rl::GaussianActor<T>& actor,
+                                      const std::type_identity_t<Eigen::Ref<const MatrixX<T>>>& mu_target,
+                                      const std::type_identity_t<Eigen::Ref<const MatrixX<T>>>& masked_input,
+                                      const std::type_identity_t<Eigen::Ref<const MatrixX<T>>>& mu_masked, double lambda,
+                                      MiWorkspace<T>& w, MatrixX<T>& dmu_masked) {
+  const Index B = masked_input.cols(), d = actor.action_dim();
+  require(masked_input.rows() == actor.input_dim() && B > 0, "masked input must be (policy_input_dim × B) with B > 0",
+          {{}, {}, "mi_loss"});
+  require(mu_target.rows() == d && mu_target.cols() == B && mu_masked.rows() == d && mu_masked.cols() == B &&
+              dmu_masked.rows() == d && dmu_masked.cols() == B,
+          "mu_target, mu_masked and dmu_masked must be (action_dim × B)", {{}, {}, "mi_loss.mu_target"});
+  require(lambda >= 0, "lambda_MI must be >= 0", {{}, {}, "lambda_mi"});
+  w.cols.clear();
+  for (Index j = 0; j < B; ++j)
+    if (!(masked_input.col(j).tail(kNumParts).array() == T(0)).all()) w.cols.push_back(j);
+  const Index K = static_cast<Index>(w.cols.size());
+  MiLossResult r;
+  if (K == 0) return r;
+  w.mu_full.resize(d, K);
+  w.mu_masked_k.resize(d, K);
+  for (Index k = 0; k < K; ++k) {
+    w.mu_full.col(k) = mu_target.col(w.cols[static_cast<std::size_t>(k)]);
+    w.mu_masked_k.col(k) = mu_masked.col(w.cols[static_cast<std::size_t>(k)]);
+  }
+  const double share = static_cast<double>(K) / static_cast<double>(B);
+  w.dmu_k.setZero(d, K);
+  w.dlog_std.setZero(d, 1);
+  const MiLossResult rk = mi_loss_on_means<T>(w.mu_full, w.mu_masked_k, actor.log_std_col(), lambda * share, w.dmu_k,
+                                              actor.learn_log_std ? &w.dlog_std : nullptr, nullptr);
+  r.kl = rk.kl * share;
+  r.loss = lambda * r.kl;
+  if (lambda > 0) {
+    for (Index k = 0; k < K; ++k) dmu_masked.col(w.cols[static_cast<std::size_t>(k)]) += w.dmu_k.col(k);
     if (actor.learn_log_std) actor.log_std.grads() += w.dlog_std.col(0);
   }
   return r;

@@ -27,6 +27,16 @@
 ///
 /// Gain modes: Fixed (w stays at `init_gain`), Scalar (one learned w shared by every DoF) or
 /// PerDof (one learned w per DoF).
+///
+/// Units: everything above lives in the BASE's action units. A base trained with normalised
+/// actions (tasks/action_space.hpp) maps its actions to PD targets as offset + scale ⊙ a, so
+/// a_base, Δa, σ_ψ (initialised to σ_base), μ̂ and the gain are in those normalised units, and the
+/// PD targets sent to the simulator are offset + scale ⊙ â (`to_targets`). With a non-zero offset
+/// w scales a_base about the offset pose (w = 0 on a DoF: target = offset), not about the zero
+/// pose. Unmasked DoFs keep â = a_base, hence exactly the base's own PD targets. The policy holds
+/// its base's action space (`actions()`; identity = the actions are the targets, the old meaning)
+/// and saves it with the base as `base/actor/action_offset`, `base/actor/action_scale` (num_dofs,
+/// float; written only when not the identity, absent ⇒ identity).
 #include <maskadapt/core/checkpoint.hpp>
 #include <maskadapt/core/error.hpp>
 #include <maskadapt/core/rng.hpp>
@@ -37,11 +47,13 @@
 #include <maskadapt/nn/mlp.hpp>
 #include <maskadapt/nn/parameter_block.hpp>
 #include <maskadapt/rl/actor_critic.hpp>
+#include <maskadapt/tasks/action_space.hpp>  // (core-only header: actions → PD targets)
 
 #include <cmath>
 #include <numbers>
 #include <span>
 #include <string>
+#include <type_traits>
 #include <vector>
 
 namespace maskadapt::adapt {
@@ -113,10 +125,14 @@ class ResidualPolicy {
  public:
   ResidualPolicy() = default;
   /// `base`: the stage-1 actor (copied; never modified afterwards). `obs_dim`: rows of s.
-  /// `dof_parts`: part of every action DoF (humanoid: action_parts(skeleton)).
-  ResidualPolicy(rl::GaussianActor<T> base, Index obs_dim, std::vector<BodyPart> dof_parts, ResidualConfig cfg, Rng& rng)
-      : base_(std::move(base)), cfg_(std::move(cfg)), obs_dim_(obs_dim), dof_parts_(std::move(dof_parts)) {
+  /// `dof_parts`: part of every action DoF (humanoid: action_parts(skeleton)). `base_actions`:
+  /// how the base's actions become PD targets (identity by default; see the file comment).
+  ResidualPolicy(rl::GaussianActor<T> base, Index obs_dim, std::vector<BodyPart> dof_parts, ResidualConfig cfg, Rng& rng,
+                 tasks::ActionSpace base_actions = {})
+      : base_(std::move(base)), cfg_(std::move(cfg)), obs_dim_(obs_dim), dof_parts_(std::move(dof_parts)),
+        actions_(std::move(base_actions)) {
     const Index A = base_.action_dim();
+    actions_.validate(A, "base.actions");
     require(base_.input_dim() == obs_dim + kNumParts,
             "base policy input has " + std::to_string(base_.input_dim()) + " rows, expected obs_dim + 5 = " +
                 std::to_string(obs_dim + kNumParts), {{}, {}, "base.actor"});
@@ -147,6 +163,24 @@ class ResidualPolicy {
   nn::ParameterBlock<T>& gain() { return gain_; }
   const nn::ParameterBlock<T>& gain() const { return gain_; }
   const std::vector<BodyPart>& dof_parts() const { return dof_parts_; }
+  /// The base's action space: PD target = offset + scale ⊙ â (identity: â is the target).
+  const tasks::ActionSpace& actions() const { return actions_; }
+  /// PD targets (action_dim × B, rad) of composite actions â (action_dim × B, base units):
+  /// offset + scale ⊙ â; a plain copy with the identity action space.
+  void to_targets(const Eigen::Ref<const MatrixX<T>>& a, MatrixX<T>& targets) const {
+    require(a.rows() == action_dim(), "actions have " + std::to_string(a.rows()) + " rows, expected " +
+                                          std::to_string(action_dim()), {{}, {}, "residual.actions"});
+    targets.resize(a.rows(), a.cols());
+    if (actions_.identity()) {
+      targets = a;
+    } else if constexpr (std::is_same_v<T, float>) {
+      actions_.to_targets(a, targets);
+    } else {  // (the action space is float)
+      MatrixXf t(a.rows(), a.cols());
+      actions_.to_targets(a.template cast<float>(), t);
+      targets = t.template cast<T>();
+    }
+  }
   Index obs_dim() const { return obs_dim_; }
   Index action_dim() const { return base_.action_dim(); }
   Index goal_dim() const { return cfg_.goal_dim; }
@@ -269,7 +303,8 @@ class ResidualPolicy {
 
   // ---- checkpoint sections ----------------------------------------------------------------
 
-  /// Writes residual/* (and, with `with_base`, base/*: the frozen actor) sections.
+  /// Writes residual/* (and, with `with_base`, base/*: the frozen actor and, unless the
+  /// identity, its action space base/actor/action_offset, base/actor/action_scale) sections.
   void save(Checkpoint& ck, bool with_base = true) const {
     ck.put("residual/params", res_.mean_net.params());
     ck.put("residual/log_std", res_.log_std.params());
@@ -279,9 +314,18 @@ class ResidualPolicy {
       ck.put("base/actor/params", base_.mean_net.params());
       ck.put("base/actor/log_std", base_.log_std.params());
       put_norm(ck, "base/actor/norm", base_.normalizer);
+      if (!base_.hidden_groups.empty()) {  // (a base trained with mask.hidden_value = mean)
+        VectorX<std::int64_t> g(static_cast<Index>(base_.hidden_groups.size()));
+        for (Index i = 0; i < g.size(); ++i) g[i] = base_.hidden_groups[static_cast<std::size_t>(i)];
+        ck.put("base/actor/hidden_groups", g);
+      }
+      if (actions_.offset.size()) ck.put("base/actor/action_offset", actions_.offset);
+      if (actions_.scale.size()) ck.put("base/actor/action_scale", actions_.scale);
     }
   }
-  /// Reads what `save` wrote (same sizes; throws naming the section otherwise).
+  /// Reads what `save` wrote (same sizes; throws naming the section otherwise). With `with_base`
+  /// the action space is the checkpoint's: absent sections (identity bases, older checkpoints)
+  /// give the identity.
   void load(const Checkpoint& ck, bool with_base = true) {
     ck.copy_to<T>("residual/params", res_.mean_net.params());
     ck.copy_to<T>("residual/log_std", res_.log_std.params());
@@ -291,6 +335,23 @@ class ResidualPolicy {
       ck.copy_to<T>("base/actor/params", base_.mean_net.params());
       ck.copy_to<T>("base/actor/log_std", base_.log_std.params());
       get_norm(ck, "base/actor/norm", base_.normalizer);
+      base_.hidden_groups.clear();
+      if (ck.contains("base/actor/hidden_groups")) {
+        const Index n = base_.input_dim() - kNumParts;
+        const VectorX<std::int64_t> g = ck.get_vector<std::int64_t>("base/actor/hidden_groups", n);
+        std::vector<std::uint8_t> groups(static_cast<std::size_t>(n));
+        for (Index i = 0; i < n; ++i) {
+          require(g[i] >= 0 && g[i] < kNumParts, "body part index out of range", {ck.source(), std::nullopt, "base/actor/hidden_groups"});
+          groups[static_cast<std::size_t>(i)] = static_cast<std::uint8_t>(g[i]);
+        }
+        base_.set_hidden_groups(std::move(groups));
+      }
+      tasks::ActionSpace a;
+      const Index A = action_dim();
+      if (ck.contains("base/actor/action_offset")) a.offset = ck.get_vector<float>("base/actor/action_offset", A);
+      if (ck.contains("base/actor/action_scale")) a.scale = ck.get_vector<float>("base/actor/action_scale", A);
+      a.validate(A, ck.source().empty() ? "base/actor/action" : ck.source() + ": base/actor/action");
+      actions_ = std::move(a);
     }
   }
 
@@ -334,6 +395,7 @@ class ResidualPolicy {
   ResidualConfig cfg_;
   Index obs_dim_ = 0;
   std::vector<BodyPart> dof_parts_;
+  tasks::ActionSpace actions_;  ///< the base's: PD target = offset + scale ⊙ â
   rl::GaussianActor<T> res_;
   nn::ParameterBlock<T> gain_;
 };

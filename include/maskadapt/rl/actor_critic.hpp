@@ -17,6 +17,7 @@
 #include <maskadapt/nn/normalizer.hpp>
 #include <maskadapt/nn/parameter_block.hpp>
 
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -67,6 +68,14 @@ struct GaussianActor {
   bool learn_log_std = false;
   bool normalize_inputs = true;
   nn::RunningNormalizer<T> normalizer;  ///< over the policy input
+  /// Hidden elements at their mean (empty: off, every row is normalised as it comes). For a
+  /// policy input [s̄ ; m] — n rows of s̄, then G = input_dim − n rows of 0/1 group flags (the
+  /// part mask) — `hidden_groups[i]` ∈ [0, G) is the group of row i of s̄. Then normalize() writes 0 — the running mean — for every element whose group
+  /// flag is set in its column, and passes the G flag rows through unnormalised. The normaliser's
+  /// statistics must then come from unmasked inputs (the trainer feeds it [s ; 0]), so a hidden
+  /// element is indistinguishable from an average one and the flags keep their 0/1 scale however
+  /// rarely they were set while the statistics were gathered.
+  std::vector<std::uint8_t> hidden_groups;
 
   GaussianActor() = default;
   GaussianActor(const ActorCriticConfig& c, Rng& rng)
@@ -83,11 +92,32 @@ struct GaussianActor {
   /// log-std as a (action_dim × 1) matrix view.
   Eigen::Map<const MatrixX<T>> log_std_col() const { return {log_std.params().data(), action_dim(), 1}; }
 
-  /// norm(x) (input_dim × B) into out (resized); identity when normalisation is off.
+  /// norm(x) (input_dim × B) into out (resized); identity when normalisation is off; with
+  /// hidden_groups, hidden elements at 0 and the group flags as they are (see hidden_groups).
   void normalize(const Eigen::Ref<const MatrixX<T>>& x, MatrixX<T>& out) const {
     out.resize(x.rows(), x.cols());
     if (normalize_inputs) normalizer.normalize(x, out);
     else out = x;
+    if (hidden_groups.empty()) return;
+    const Index n = static_cast<Index>(hidden_groups.size()), G = x.rows() - n;
+    for (Index j = 0; j < x.cols(); ++j) {
+      out.col(j).tail(G) = x.col(j).tail(G);
+      bool any = false;
+      for (Index g = 0; g < G; ++g) any = any || x(n + g, j) != T(0);
+      if (!any) continue;
+      for (Index i = 0; i < n; ++i)
+        if (x(n + hidden_groups[static_cast<std::size_t>(i)], j) != T(0)) out(i, j) = T(0);
+    }
+  }
+
+  /// Sets hidden_groups (one group per row of s̄; the remaining input rows are the group flags).
+  void set_hidden_groups(std::vector<std::uint8_t> groups) {
+    const Index n = static_cast<Index>(groups.size()), G = input_dim() - n;
+    require(n > 0 && G > 0, "hidden groups must cover the observation rows and leave the flag rows",
+            {{}, {}, "GaussianActor.hidden_groups"});
+    for (std::uint8_t g : groups)
+      require(static_cast<Index>(g) < G, "group index beyond the flag rows", {{}, {}, "GaussianActor.hidden_groups"});
+    hidden_groups = std::move(groups);
   }
 
   /// Mean action μ (action_dim × B) for inputs x (inference path; `scratch` holds the normalised input).

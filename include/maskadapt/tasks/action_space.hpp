@@ -43,6 +43,20 @@ struct ActionSpace {
       if (offset.size()) t += offset;
     }
   }
+
+  /// Adds to `grad` (num_dofs × B) ∂/∂a of the action-bound penalty
+  ///   weight · Σ_ij (max(t_ij − bound, 0)² + min(t_ij + bound, 0)²),   t = offset + scale ⊙ a,
+  /// i.e. weight · 2·excess(t) ⊙ scale: the bound is on the PD targets (rad) whatever the action
+  /// units. `work` is scratch (sized here). (The base trainer's μ and stage 2's composite actions
+  /// use it.)
+  template <class A, class G>
+  void add_bound_penalty_grad(const A& a, float bound, float weight, MatrixXf& work, G&& grad) const {
+    work.resize(a.rows(), a.cols());
+    to_targets(a, work);
+    work = weight * ((work.array() - bound).max(0.0f) + (work.array() + bound).min(0.0f)) * 2.0f;
+    if (scale.size()) work.array().colwise() *= scale.array();
+    grad += work;
+  }
 };
 
 }  // namespace maskadapt::tasks

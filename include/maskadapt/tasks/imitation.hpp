@@ -136,6 +136,14 @@ class ImitationTask {
   Index action_dim() const { return sim_.skeleton().num_dofs(); }
   Index amp_dim() const { return obs_dim() * kAmpWindowFrames; }
   const ImitationTaskConfig& config() const { return cfg_; }
+
+  /// Changes p for the episodes that start from now on (a masking curriculum; running episodes
+  /// keep their masks). The draw consumes the env's RNG the same way for every p.
+  void set_mask_prob(double p) {
+    if (p == cfg_.mask_prob) return;
+    sampler_ = MaskSampler::random(p, cfg_.max_masked_parts);
+    cfg_.mask_prob = p;
+  }
   const Sim& sim() const { return sim_; }
   Sim& sim() { return sim_; }
   /// Part of every observation element (obs_dim).

@@ -15,9 +15,13 @@
 ///   actor/norm/{count,mean,m2}, critic/norm/…, disc/norm/…         running normalisers (double)
 ///   actor/action_offset, actor/action_scale   (num_dofs, float) PD target = offset + scale ⊙ a;
 ///                                              absent ⇒ 0 and 1 (the actions are the targets)
+///
+/// A policy-only export (train/policy_export.hpp, `maskadapt export`) keeps `config` and the
+/// actor/ sections under these names and drops the rest; load_base_policy reads either file.
 #include <maskadapt/core/checkpoint.hpp>
 #include <maskadapt/core/error.hpp>
 #include <maskadapt/core/rng.hpp>
+#include <maskadapt/mask/parts.hpp>
 #include <maskadapt/nn/activation.hpp>
 #include <maskadapt/motion/library.hpp>
 #include <maskadapt/nn/normalizer.hpp>
@@ -25,6 +29,7 @@
 #include <maskadapt/rl/discriminator.hpp>
 #include <maskadapt/tasks/action_space.hpp>
 #include <maskadapt/train/config.hpp>
+#include <maskadapt/train/policy_export.hpp>
 
 #include <algorithm>
 #include <string>
@@ -163,18 +168,37 @@ inline void save_policy(const BasePolicy& p, Checkpoint& c) {
   save_normalizer(p.disc.normalizer(), "disc/norm", c);
   if (p.actions.offset.size()) c.put("actor/action_offset", p.actions.offset);
   if (p.actions.scale.size()) c.put("actor/action_scale", p.actions.scale);
+  if (!p.ac.actor.hidden_groups.empty()) {  // mask.hidden_value = mean: the part of every observation row
+    VectorX<std::int64_t> g(static_cast<Index>(p.ac.actor.hidden_groups.size()));
+    for (Index i = 0; i < g.size(); ++i) g[i] = p.ac.actor.hidden_groups[static_cast<std::size_t>(i)];
+    c.put("actor/hidden_groups", g);
+  }
 }
 
-/// Reads what save_policy wrote into networks of the same sizes; throws naming the section on
-/// a missing section or a size mismatch.
-inline void load_policy(const Checkpoint& c, BasePolicy& p) {
+/// Reads `actor/hidden_groups` into `actor` when present (a policy trained with mask.hidden_value
+/// = mean); absent: the actor normalises every input row (hidden elements are zeros).
+template <class Actor>
+void load_hidden_groups(const Checkpoint& c, Actor& actor) {
+  actor.hidden_groups.clear();
+  if (!c.contains("actor/hidden_groups")) return;
+  const Index n = actor.input_dim() - kNumParts;
+  const VectorX<std::int64_t> g = c.get_vector<std::int64_t>("actor/hidden_groups", n);
+  std::vector<std::uint8_t> groups(static_cast<std::size_t>(n));
+  for (Index i = 0; i < n; ++i) {
+    require(g[i] >= 0 && g[i] < kNumParts, "body part index out of range", {c.source(), std::nullopt, "actor/hidden_groups"});
+    groups[static_cast<std::size_t>(i)] = static_cast<std::uint8_t>(g[i]);
+  }
+  actor.set_hidden_groups(std::move(groups));
+}
+
+/// Reads the actor's sections (actor/params, actor/log_std, actor/norm, the action space) into a
+/// policy of the same sizes; critic and discriminator are left as they are. Throws naming the
+/// section on a missing section or a size mismatch.
+inline void load_actor(const Checkpoint& c, BasePolicy& p) {
   c.copy_to<float>("actor/params", p.ac.actor.mean_net.params());
   c.copy_to<float>("actor/log_std", p.ac.actor.log_std.params());
-  c.copy_to<float>("critic/params", p.ac.critic.net.params());
-  c.copy_to<float>("disc/params", p.disc.net().params());
   load_normalizer(c, "actor/norm", p.ac.actor.normalizer);
-  load_normalizer(c, "critic/norm", p.ac.critic.normalizer);
-  load_normalizer(c, "disc/norm", p.disc.normalizer());
+  load_hidden_groups(c, p.ac.actor);
   const Index nd = p.ac.actor.action_dim();
   p.actions = {};  // checkpoints without these sections (older, or identity) drive the targets directly
   if (c.contains("actor/action_offset")) p.actions.offset = c.get_vector<float>("actor/action_offset", nd);
@@ -182,21 +206,43 @@ inline void load_policy(const Checkpoint& c, BasePolicy& p) {
   p.actions.validate(nd, c.source().empty() ? "actor/action" : c.source() + ": actor/action");
 }
 
-/// A base policy and the configuration it was trained with, read from a stage-1 checkpoint.
+/// Reads what save_policy wrote into networks of the same sizes; throws naming the section on
+/// a missing section or a size mismatch.
+inline void load_policy(const Checkpoint& c, BasePolicy& p) {
+  load_actor(c, p);
+  c.copy_to<float>("critic/params", p.ac.critic.net.params());
+  c.copy_to<float>("disc/params", p.disc.net().params());
+  load_normalizer(c, "critic/norm", p.ac.critic.normalizer);
+  load_normalizer(c, "disc/norm", p.disc.normalizer());
+}
+
+/// A base policy and the configuration it was trained with, read from a stage-1 checkpoint or
+/// a policy-only export.
 struct LoadedBasePolicy {
   BaseTrainConfig config;
   BasePolicy policy;
   long long iteration = 0;  ///< training iterations done when the checkpoint was written
+  /// True when read from a policy-only export (train/policy_export.hpp): the actor, its input
+  /// normaliser and the action space are the trained ones, but policy.ac.critic and policy.disc
+  /// are freshly initialised placeholders (seed 0) of the config's sizes — not trained; use the
+  /// actor only (play, eval-base and stage 2 do). False: every network is the trained one.
+  bool policy_only = false;
 };
 
-/// Loads the policy of a checkpoint written by BaseTrainer (architecture from its `config`
-/// section). `source` labels errors (e.g. the file path).
+/// Loads the policy of a checkpoint written by BaseTrainer, or of its export (`maskadapt
+/// export`; then only the actor, see LoadedBasePolicy::policy_only, after check_policy_export
+/// against `dims`). The architecture comes from the `config` section. `source` labels errors
+/// (e.g. the file path; "": the checkpoint's own source).
 inline LoadedBasePolicy load_base_policy(const Checkpoint& c, const PolicyDims& dims, const std::string& source = {}) {
+  const std::string file = source.empty() ? c.source() : source;
   LoadedBasePolicy out;
-  out.config = config_from_string(c.get_string("config"), source + " (config)");
+  out.policy_only = c.contains("model/kind");  // an export, or something claiming a model kind: checked next
+  if (out.policy_only) (void)check_policy_export(c, ModelDims{dims.obs_dim, dims.policy_input_dim, dims.action_dim}, file);
+  out.config = config_from_string(c.get_string("config"), file + " (config)");
   Rng init(0);
   out.policy = make_base_policy(out.config, dims, init);
-  load_policy(c, out.policy);
+  if (out.policy_only) load_actor(c, out.policy);
+  else load_policy(c, out.policy);
   if (c.contains("trainer/iteration")) out.iteration = c.get_int("trainer/iteration");
   return out;
 }

@@ -62,7 +62,7 @@ inline tasks::ImitationTaskConfig task_config(const BaseTrainConfig& c, std::opt
   t.early_termination = c.env.early_termination;
   t.min_head_height = c.env.termination_height;
   t.masking = c.mask.enabled;
-  t.mask_prob = c.mask.prob;
+  t.mask_prob = mask_prob_at(c.mask, 0);  // (the trainer moves it along mask.warmup/ramp_samples)
   t.max_masked_parts = c.mask.max_parts;
   t.actions = action_space_of(c, -1);
   return t;
@@ -84,6 +84,7 @@ class BaseTrainer {
     Rng init = Rng::stream(cfg_.run.seed, 0x1A17ULL);
     policy_ = make_base_policy(cfg_, dims(), init);
     policy_.actions = action_space_of(cfg_, task_.action_dim());
+    apply_hidden_value();
     actor_opt_ = nn::Adam<float>({cfg_.ppo.actor_lr, 0.9, 0.999, 1e-8, 0.0, false, cfg_.ppo.max_grad_norm});
     critic_opt_ = nn::Adam<float>({cfg_.ppo.critic_lr, 0.9, 0.999, 1e-8, 0.0, false, cfg_.ppo.max_grad_norm});
     rl::RolloutSpec spec;
@@ -115,6 +116,8 @@ class BaseTrainer {
     nn::ScopedPool parallel_networks(task_.pool());
     Stopwatch total;
     task_.stats().clear();
+    if (cfg_.mask.enabled) task_.set_mask_prob(mask_prob_at(cfg_.mask, samples_));
+    st.extra["mask_prob"] = cfg_.mask.enabled ? task_.config().mask_prob : 0.0;
     collect(st);
     Stopwatch upd;
     Stopwatch disc_rewards;
@@ -127,11 +130,17 @@ class BaseTrainer {
     st.time_disc += disc_update.seconds();
     // Input statistics change only between iterations, so the behaviour policy that produced
     // buf_.log_probs is exactly the policy at the start of the PPO update.
-    policy_.ac.update_normalizers(buf_.policy_input, buf_.obs);
+    if (policy_.ac.actor.hidden_groups.empty()) {
+      policy_.ac.update_normalizers(buf_.policy_input, buf_.obs);
+    } else {  // mask.hidden_value = mean: the actor's statistics from the unmasked inputs [s ; 0]
+      adapt::unmasked_policy_input<float>(buf_.obs, task_.policy_input_dim(), unmasked_inputs_);
+      policy_.ac.update_normalizers(unmasked_inputs_, buf_.obs);
+    }
     st.time_update += upd.seconds();
     ++iteration_;
     samples_ += buf_.size();
     finish_iteration_stats(st, iteration_, samples_, buf_.size(), total.seconds(), task_.stats());
+    train_seconds_ += st.time_total;
     return st;
   }
 
@@ -157,6 +166,10 @@ class BaseTrainer {
     c.put_int("trainer/iteration", iteration_);
     c.put_int("trainer/samples", samples_);
     save_task_state(c, "task/", task_);
+    // provenance/ sections record how the run came about; they never affect training (and
+    // differ between a straight and a resumed run: wall time)
+    c.put_string("provenance/history", provenance_);
+    c.put_double("provenance/train_seconds", train_seconds_);
   }
 
   void save(const std::string& path) const {
@@ -169,6 +182,7 @@ class BaseTrainer {
   /// naming the section on any mismatch.
   void load(const Checkpoint& c) {
     load_policy(c, policy_);
+    apply_hidden_value();  // the run's config decides (a checkpoint from before the field has no groups)
     c.copy_to<float>("actor/adam", policy_.ac.actor.mean_net.block().storage());
     c.copy_to<float>("actor/log_std_adam", policy_.ac.actor.log_std.storage());
     c.copy_to<float>("critic/adam", policy_.ac.critic.net.block().storage());
@@ -187,9 +201,33 @@ class BaseTrainer {
     iteration_ = c.get_int("trainer/iteration");
     samples_ = c.get_int("trainer/samples");
     load_task_state(c, "task/", task_);
+    // (checkpoints written before these records: the history is unknown, and so is the time)
+    provenance_ = c.contains("provenance/history") ? c.get_string("provenance/history")
+                                                   : std::string("(earlier chunks predate provenance records)\n");
+    train_seconds_ = c.contains("provenance/train_seconds") ? c.get_double("provenance/train_seconds") : NAN;
   }
 
+  /// Appends one line to the run's history (what started or resumed it: date, git commit,
+  /// command line); saved in `provenance/history` and carried into exported models.
+  void add_provenance(const std::string& line) { provenance_ += line + "\n"; }
+  const std::string& provenance() const { return provenance_; }
+  /// Wall seconds spent in iterate() over the whole run, resumed chunks included (NaN when the
+  /// run started from a checkpoint that did not record it).
+  double train_seconds() const { return train_seconds_; }
+
  private:
+  /// mask.hidden_value = mean: the actor puts hidden elements at their running mean
+  /// (rl::GaussianActor::hidden_groups, one body part per observation row).
+  void apply_hidden_value() {
+    if (cfg_.mask.hidden_value != "mean") {
+      policy_.ac.actor.hidden_groups.clear();
+      return;
+    }
+    std::vector<std::uint8_t> groups;
+    for (BodyPart p : task_.obs_parts()) groups.push_back(static_cast<std::uint8_t>(p));
+    policy_.ac.actor.set_hidden_groups(std::move(groups));
+  }
+
   // ---- 1. collection ----------------------------------------------------------------------
   void collect(IterationStats& st) {
     const Index N = task_.num_envs(), H = cfg_.ppo.horizon, A = task_.action_dim();
@@ -247,8 +285,14 @@ class BaseTrainer {
     const Index nmb = std::max<Index>(1, std::min<Index>(n, n / std::max<Index>(1, cfg_.ppo.minibatch_size)));
     double sum_pl = 0, sum_vl = 0, sum_kl = 0, sum_mi = 0, sum_cf = 0, sum_gn = 0;
     int count = 0;
-    MatrixXf pin, act, obs, full, norm_in, norm_obs, dmu, dv, target, vold;
+    MatrixXf pin, act, obs, full, norm_in, norm_obs, dmu, dv, target, vold, mu_target;
     RowVectorXf lp_old, a_mb, lp_new, dlogp;
+    const bool frozen_target = cfg_.mask.enabled && mi_gradient_ == adapt::MiGradient::TargetFrozen;
+    if (frozen_target) {  // μ(s, m⁰) of the pre-update policy for every sample: L_MI's fixed target
+      adapt::unmasked_policy_input<float>(buf_.obs, task_.policy_input_dim(), unmasked_inputs_);
+      frozen_mu_.resize(actor.action_dim(), n);
+      actor.mean(unmasked_inputs_, frozen_mu_, actor_ws_, scratch_);
+    }
     for (int epoch = 0; epoch < cfg_.ppo.epochs; ++epoch) {
       for (const auto& idx : rl::minibatch_indices(n, nmb, rng_)) {
         rl::gather_columns(buf_.policy_input, idx, pin);
@@ -275,21 +319,19 @@ class BaseTrainer {
         nn::gaussian_log_prob_backward<float>(mu, actor.log_std_col(), act, dlogp, &dmu,
                                               actor.learn_log_std ? &dls : nullptr);
         // action-bound penalty on the PD targets beyond ±π rad (target = offset + scale ⊙ μ)
-        const float bound = static_cast<float>(M_PI), wb = static_cast<float>(cfg_.ppo.action_bound_weight);
-        // (the identity action space copies μ; d target/dμ = scale, 1 without one)
-        const tasks::ActionSpace& space = policy_.actions;
-        bound_targets_.resize(mu.rows(), B);
-        space.to_targets(mu, bound_targets_);
-        bound_targets_ = wb / static_cast<float>(B) *
-                         ((bound_targets_.array() - bound).max(0.0f) + (bound_targets_.array() + bound).min(0.0f)) * 2.0f;
-        if (space.scale.size()) bound_targets_.array().colwise() *= space.scale.array();
-        dmu += bound_targets_;
+        const float wb = static_cast<float>(cfg_.ppo.action_bound_weight);
+        policy_.actions.add_bound_penalty_grad(mu, static_cast<float>(M_PI), wb / static_cast<float>(B), bound_targets_, dmu);
         // λ_MI·L_MI reuses the surrogate's masked pass: its ∂/∂μ joins dmu before the one backward
         double mi_kl = 0;
         if (cfg_.mask.enabled) {
-          adapt::unmasked_policy_input<float>(obs, task_.policy_input_dim(), full);
-          mi_kl = adapt::mi_loss_on_masked_pass<float>(actor, full, pin, mu, cfg_.mask.lambda_mi, mi_ws_, mi_gradient_, dmu)
-                      .kl;
+          if (frozen_target) {
+            rl::gather_columns(frozen_mu_, idx, mu_target);
+            mi_kl = adapt::mi_loss_on_frozen_target<float>(actor, mu_target, pin, mu, cfg_.mask.lambda_mi, mi_ws_, dmu).kl;
+          } else {
+            adapt::unmasked_policy_input<float>(obs, task_.policy_input_dim(), full);
+            mi_kl = adapt::mi_loss_on_masked_pass<float>(actor, full, pin, mu, cfg_.mask.lambda_mi, mi_ws_, mi_gradient_, dmu)
+                        .kl;
+          }
         }
         actor.mean_net.backward(actor_cache_, dmu, actor.mean_net.grads());
         if (actor.learn_log_std && dls.size()) actor.log_std.grads() += dls.col(0);
@@ -375,6 +417,10 @@ class BaseTrainer {
   rl::RolloutBuffer<float> buf_;
   rl::ReplayBuffer<float> replay_;
   long long iteration_ = 0, samples_ = 0;
+  MatrixXf unmasked_inputs_;  ///< [s ; 0] of the rollout (policy_input_dim × N·H), hidden_value = mean
+  MatrixXf frozen_mu_;        ///< (action_dim × N·H) μ(s, m⁰) before the update (mi_gradient target_frozen)
+  std::string provenance_;    ///< one line per start / resume (provenance/history)
+  double train_seconds_ = 0;  ///< wall seconds in iterate(), all chunks (provenance/train_seconds)
   // workspaces (collection path allocates nothing once sized)
   nn::InferenceWorkspace<float> actor_ws_, critic_ws_;
   nn::TrainCache<float> actor_cache_, critic_cache_;

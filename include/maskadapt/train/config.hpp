@@ -69,9 +69,31 @@ struct MaskConfig {
   double lambda_mi = 1.0;  ///< weight of L_MI = KL(π(·|s,m⁰) ‖ π(·|s̄,m)); 0 disables
   /// "both": exact KL gradient through both distributions (default; stable);
   /// "target_stopped": the unmasked policy is a constant target (the paper's formula, literally —
-  /// it diverged in our measurements, see adapt/mi_loss.hpp and docs/results.md).
+  /// it diverged in our measurements, see adapt/mi_loss.hpp and docs/results.md);
+  /// "target_frozen": the target is the pre-update policy of the iteration (adapt/mi_loss.hpp).
   std::string mi_gradient = "both";
+  /// Masking curriculum (a lever of issue 14, not in the paper): before `warmup_samples` the mask
+  /// probability is 0 — plain AMP with the mask bits present and all zero, so L_MI is exactly 0 —
+  /// then it rises linearly to `prob` over `ramp_samples` (0: at once). The objective stays
+  /// L_PPO + λ_MI·L_MI; only how often a masked episode is drawn changes. Masks are drawn when an
+  /// episode starts, so running episodes keep theirs. See mask_prob_at.
+  long long warmup_samples = 0;
+  long long ramp_samples = 0;
+  /// What the policy sees in place of a hidden element: `zero` — s̄ = (1 − m) ⊙ s as the paper
+  /// writes it, then normalised like every other input (the running statistics then include the
+  /// zeros, and a mask flag that was rarely set normalises to up to +5); `mean` — the element's
+  /// running mean (0 after normalisation), the mask flags unnormalised, and the statistics from
+  /// unmasked inputs only (rl::GaussianActor::hidden_groups). Measured in docs/results.md.
+  std::string hidden_value = "zero";
 };
+
+/// The mask probability of an episode that starts after `samples` environment steps of training.
+inline double mask_prob_at(const MaskConfig& m, long long samples) {
+  if (samples < m.warmup_samples) return 0.0;
+  if (m.ramp_samples <= 0) return m.prob;
+  const double t = static_cast<double>(samples - m.warmup_samples) / static_cast<double>(m.ramp_samples);
+  return t >= 1.0 ? m.prob : m.prob * t;
+}
 
 /// Network sizes.
 struct NetworkConfig {
@@ -174,8 +196,11 @@ struct BaseTrainConfig {
     check(mask.prob >= 0 && mask.prob <= 1, "mask.prob", "must be in [0, 1]");
     check(mask.max_parts >= 1 && mask.max_parts <= 5, "mask.max_parts", "must be in [1, 5] (there are 5 body parts)");
     check(mask.lambda_mi >= 0, "mask.lambda_mi", "must be ≥ 0");
-    check(mask.mi_gradient == "both" || mask.mi_gradient == "target_stopped", "mask.mi_gradient",
-          "must be \"both\" or \"target_stopped\"");
+    check(mask.warmup_samples >= 0, "mask.warmup_samples", "must be ≥ 0");
+    check(mask.hidden_value == "zero" || mask.hidden_value == "mean", "mask.hidden_value", "expected zero or mean");
+    check(mask.ramp_samples >= 0, "mask.ramp_samples", "must be ≥ 0");
+    check(mask.mi_gradient == "both" || mask.mi_gradient == "target_stopped" || mask.mi_gradient == "target_frozen",
+          "mask.mi_gradient", "must be \"both\", \"target_stopped\" or \"target_frozen\"");
     for (const auto* h : {&net.actor_hidden, &net.critic_hidden, &net.disc_hidden})
       for (Index n : *h) check(n >= 1, h == &net.actor_hidden ? "net.actor_hidden" : h == &net.critic_hidden ? "net.critic_hidden" : "net.disc_hidden", "layer sizes must be ≥ 1");
     check(net.action_offset == "zero" || net.action_offset == "mean_pose" || net.action_offset == "mid_range",
@@ -253,7 +278,9 @@ inline nlohmann::json to_json(const BaseTrainConfig& c) {
               {"termination_height", c.env.termination_height},
               {"early_termination", c.env.early_termination}};
   j["mask"] = {{"enabled", c.mask.enabled}, {"prob", c.mask.prob}, {"max_parts", c.mask.max_parts},
-               {"lambda_mi", c.mask.lambda_mi}, {"mi_gradient", c.mask.mi_gradient}};
+               {"lambda_mi", c.mask.lambda_mi}, {"mi_gradient", c.mask.mi_gradient},
+               {"warmup_samples", c.mask.warmup_samples}, {"ramp_samples", c.mask.ramp_samples},
+               {"hidden_value", c.mask.hidden_value}};
   j["net"] = {{"actor_hidden", c.net.actor_hidden}, {"critic_hidden", c.net.critic_hidden},
               {"disc_hidden", c.net.disc_hidden},   {"activation", c.net.activation},
               {"init_log_std", c.net.init_log_std}, {"learn_log_std", c.net.learn_log_std},
@@ -332,6 +359,9 @@ inline BaseTrainConfig config_from_json(const nlohmann::json& j, const std::stri
     r.get("max_parts", c.mask.max_parts);
     r.get("lambda_mi", c.mask.lambda_mi);
     r.get("mi_gradient", c.mask.mi_gradient);
+    r.get("warmup_samples", c.mask.warmup_samples);
+    r.get("ramp_samples", c.mask.ramp_samples);
+    r.get("hidden_value", c.mask.hidden_value);
     r.finish();
   }
   {

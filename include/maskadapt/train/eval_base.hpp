@@ -46,6 +46,7 @@ struct VisitationResult {
   double visited_fraction = 0;    ///< reference frames visited at least once
   double fall_rate = NAN;         ///< ended-by-fall / ended episodes (NaN: none ended)
   double mean_episode_length = NAN;  ///< s, over ended episodes (NaN: none ended)
+  double mean_speed = NAN;        ///< m/s: horizontal root path length / time, over steps that did not end an episode
   long long episodes = 0;         ///< ended episodes
   long long falls = 0;
 };
@@ -60,8 +61,23 @@ struct BaseEvaluation {
   std::vector<MaskEvaluation> rows;  ///< null mask, 5 singles, 10 pairs (part order)
   long long reference_frames = 0;
   long long generated_frames_per_mask = 0;
+  double reference_speed = NAN;  ///< m/s, the clips' mean horizontal root speed (reference_mean_speed; NaN: not given)
   EvalBaseOptions options;
 };
+
+/// Mean horizontal root speed of the clips of `lib` (m/s): their summed frame-to-frame root path
+/// length in the ground plane over their summed duration — what "it walks" is compared with.
+inline double reference_mean_speed(const MotionLibrary& lib) {
+  double path = 0, seconds = 0;
+  for (int c = 0; c < lib.num_clips(); ++c) {
+    const MotionClip& clip = lib.clip(c);
+    for (Index f = 1; f < clip.num_frames(); ++f)
+      path += (clip.root_pos.col(f).head<2>() - clip.root_pos.col(f - 1).head<2>()).norm();
+    seconds += static_cast<double>(clip.num_frames() - 1) / clip.fps;
+  }
+  require(seconds > 0, "the motion library has no frames", {{}, {}, "reference"});
+  return path / seconds;
+}
 
 /// The masks of the table: none, then {p} for each part, then {p, q} for p < q.
 inline std::vector<PartMask> one_and_two_part_masks() {
@@ -118,6 +134,10 @@ VisitationResult evaluate_visitation(Sim& sim, const BasePolicy& policy, const t
   MatrixXf actions(task.action_dim(), N), mu(task.action_dim(), N), scratch;
   RowVectorX<float> logp;
   task.stats().clear();
+  auto root_xy = [&](Index e) -> Eigen::Vector2d { return sim.body_states(static_cast<std::size_t>(e)).pos.col(0).template head<2>().template cast<double>(); };
+  std::vector<Eigen::Vector2d> last_xy(static_cast<std::size_t>(N));
+  for (Index e = 0; e < N; ++e) last_xy[static_cast<std::size_t>(e)] = root_xy(e);
+  double path = 0, moving_seconds = 0;
   for (long long f = 0; f < opt.frames; ++f) {
     if (opt.deterministic) {
       policy.ac.actor.mean(task.policy_inputs(), mu, ws, scratch);
@@ -126,6 +146,15 @@ VisitationResult evaluate_visitation(Sim& sim, const BasePolicy& policy, const t
       policy.ac.actor.act(task.policy_inputs(), act_rng, actions, logp, mu, ws, scratch);
     }
     task.step(actions);
+    for (Index e = 0; e < N; ++e) {  // an env whose episode ended was reset: its step is no motion
+      const auto ue = static_cast<std::size_t>(e);
+      const Eigen::Vector2d xy = root_xy(e);
+      if (!task.terminated()[ue] && !task.truncated()[ue]) {
+        path += (xy - last_xy[ue]).norm();
+        moving_seconds += sim.control_dt();
+      }
+      last_xy[ue] = xy;
+    }
     // the frame after this step (for an env whose episode just ended: the new episode's first frame)
     for (Index e = 0; e < N; ++e) {
       const VectorXf v = visitation_features(skel, sim.body_states(static_cast<std::size_t>(e)));
@@ -142,6 +171,7 @@ VisitationResult evaluate_visitation(Sim& sim, const BasePolicy& policy, const t
   r.visited_fraction = static_cast<double>(ve.visited_reference) / static_cast<double>(reference.cols());
   r.fall_rate = es.fall_rate();
   r.mean_episode_length = es.mean_length();
+  r.mean_speed = moving_seconds > 0 ? path / moving_seconds : NAN;
   r.episodes = es.episodes;
   r.falls = es.falls;
   return r;
@@ -168,7 +198,7 @@ BaseEvaluation evaluate_base_policy(Sim& sim, const BasePolicy& policy, const ta
     row.shared = evaluate_visitation(sim, policy, shared, m, reference, opt, fall, min_head_height, pool);
     if (progress)
       *progress << "eval-base: " << m.to_string() << ": H_norm RSI " << row.rsi.h_norm << ", shared " << row.shared.h_norm
-                << ", fall rate " << row.rsi.fall_rate << std::endl;
+                << ", fall rate " << row.rsi.fall_rate << ", speed " << row.rsi.mean_speed << " m/s" << std::endl;
     out.rows.push_back(row);
   }
   return out;
@@ -209,15 +239,22 @@ inline std::string format_hnorm_table(const BaseEvaluation& ev, bool shared) {
   return s.str();
 }
 
-/// Fall rate and mean episode length per mask, one line each.
+/// Fall rate, mean episode length and mean speed per mask, one line each (with the clips' speed
+/// when known).
 inline std::string format_episode_table(const BaseEvaluation& ev) {
   std::ostringstream s;
-  char buf[160];
-  std::snprintf(buf, sizeof buf, "%-22s %12s %12s %12s %12s\n", "mask", "fall(RSI)", "len(RSI) s", "fall(shared)", "len(shared) s");
+  char buf[200];
+  std::snprintf(buf, sizeof buf, "%-22s %10s %11s %12s %12s %14s %14s\n", "mask", "fall(RSI)", "len(RSI) s",
+                "speed(RSI)", "fall(shared)", "len(shared) s", "speed(shared)");
   s << buf;
   for (const auto& r : ev.rows) {
-    std::snprintf(buf, sizeof buf, "%-22s %12.3f %12.2f %12.3f %12.2f\n", r.mask.to_string().c_str(), r.rsi.fall_rate,
-                  r.rsi.mean_episode_length, r.shared.fall_rate, r.shared.mean_episode_length);
+    std::snprintf(buf, sizeof buf, "%-22s %10.3f %11.2f %12.2f %12.3f %14.2f %14.2f\n", r.mask.to_string().c_str(),
+                  r.rsi.fall_rate, r.rsi.mean_episode_length, r.rsi.mean_speed, r.shared.fall_rate,
+                  r.shared.mean_episode_length, r.shared.mean_speed);
+    s << buf;
+  }
+  if (std::isfinite(ev.reference_speed)) {
+    std::snprintf(buf, sizeof buf, "speed in m/s; the clips' mean speed is %.2f m/s\n", ev.reference_speed);
     s << buf;
   }
   return s.str();
@@ -230,6 +267,7 @@ inline nlohmann::json to_json(const VisitationResult& r) {
           {"visited_fraction", r.visited_fraction},
           {"fall_rate", num(r.fall_rate)},
           {"mean_episode_length", num(r.mean_episode_length)},
+          {"mean_speed", num(r.mean_speed)},
           {"episodes", r.episodes},
           {"falls", r.falls}};
 }
@@ -248,6 +286,7 @@ inline nlohmann::json to_json(const BaseEvaluation& ev) {
   j["seed"] = ev.options.seed;
   j["reference_frames"] = ev.reference_frames;
   j["generated_frames_per_mask"] = ev.generated_frames_per_mask;
+  j["reference_speed"] = std::isfinite(ev.reference_speed) ? nlohmann::json(ev.reference_speed) : nlohmann::json(nullptr);
   j["masks"] = nlohmann::json::array();
   for (const auto& r : ev.rows)
     j["masks"].push_back({{"mask", r.mask.to_string()}, {"bits", r.mask.bits}, {"rsi", to_json(r.rsi)}, {"shared", to_json(r.shared)}});

@@ -23,6 +23,9 @@
 ///   - pose error of the rest (m): DTW (eval/dtw.hpp) between the simulated rest-body features
 ///     and the reference walk's features over the same span, mean cost per aligned pair divided
 ///     by the number of rest bodies (metres per body).
+///
+/// Both send the policy's composite actions â (the base's units) to the simulator as the PD
+/// targets offset + scale ⊙ â of the base's action space (ResidualPolicy::actions(); identity: â).
 #include <maskadapt/adapt/residual_policy.hpp>
 #include <maskadapt/core/error.hpp>
 #include <maskadapt/core/rng.hpp>
@@ -106,6 +109,7 @@ CompositionResult evaluate_composition(Sim& sim, const adapt::ResidualPolicy<flo
   tc.fall = std::move(fall);
   tc.episode_seconds = opt.episode_seconds;
   tc.masking = false;
+  tc.actions = policy.actions();  // the task steps with offset + scale ⊙ â
   tasks::ImitationTask<Sim> task(sim, std::move(reset), tc, opt.seed, pool);
   require(policy.obs_dim() == task.obs_dim() && policy.action_dim() == task.action_dim() && policy.goal_dim() == 0,
           "the residual policy does not fit this simulator / task (composition needs no goals)", {{}, {}, "checkpoint"});
@@ -190,7 +194,7 @@ TrackingEvaluation evaluate_tracking(Sim& sim, const adapt::ResidualPolicy<float
   const PartElements pe(observation_parts(skel));
   const std::vector<PartMask> masks(static_cast<std::size_t>(N), policy_mask.value_or(designated));
   Rng rng = Rng::stream(opt.seed, 0x7EA1ULL);
-  MatrixXf obs(observation_dim(skel), N), goals(policy.goal_dim(), N), x, mu, actions;
+  MatrixXf obs(observation_dim(skel), N), goals(policy.goal_dim(), N), x, mu, actions, pd_targets;
   RowVectorX<float> logp;
   adapt::ResidualWorkspace<float> ws;
   TrackingEvaluation out;
@@ -220,7 +224,8 @@ TrackingEvaluation evaluate_tracking(Sim& sim, const adapt::ResidualPolicy<float
       policy.build_input(pe, obs, masks, goals, x, ws);
       if (opt.deterministic) policy.mean(x, masks, actions, ws);
       else policy.act(x, masks, rng, actions, logp, mu, ws);
-      sim.step(actions);
+      policy.to_targets(actions, pd_targets);  // offset + scale ⊙ â
+      sim.step(pd_targets);
       for (Index e = 0; e < N; ++e) {
         const auto ue = static_cast<std::size_t>(e);
         if (fell[ue]) continue;

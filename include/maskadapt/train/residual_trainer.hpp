@@ -12,9 +12,11 @@
 ///
 /// One iteration:
 ///  1. collection (`horizon` steps × N envs): residual input [s ; a_base(s̄, m) ; m ; g] with the
-///     frozen base on the inference path; composite action â (masked DoFs only); the critic sees
-///     [s ; m ; g]; masks per episode from a set (optionally switching mid-episode); tracking goals
-///     consumed one frame per step from the goal buffer;
+///     frozen base on the inference path; composite action â (masked DoFs only) in the base's
+///     action units, sent to the simulator as the PD targets offset + scale ⊙ â (the base's
+///     action space; the identity sends â itself); the critic sees [s ; m ; g]; masks per episode
+///     from a set (optionally switching mid-episode); tracking goals consumed one frame per step
+///     from the goal buffer;
 ///  2. rewards: row k = −log(max(1 − D_k(window_k | m), 1e−4)); tracking row exp(−‖q* − q‖²);
 ///  3. GAE per objective (PopArt-denormalised values), PPO on the residual and the gain;
 ///  4. discriminator steps: real samples from each source (blends for ours), fake = agent windows
@@ -23,6 +25,17 @@
 ///
 /// Tracking with method cml: the same objectives, but the base runs on the full observation with
 /// the null mask (no mask invariance; residual_net_config); scratch: a zero base, every DoF residual.
+///
+/// Action units: a base trained with normalised actions (tasks/action_space.hpp) comes with its
+/// action space (FrozenBase); â = w·a_base + Δa, Δa's σ, the gain and the "only masked DoFs
+/// change" rule are all in those normalised units (adapt/residual_policy.hpp). There is no
+/// penalty on Δa itself; the one action term, the action-bound penalty, is on the PD targets
+/// (beyond ±π rad) exactly as in stage 1, so its gradient reaches μ̂ through `scale`. Scratch has
+/// no base: its action space is the run config's net.action_* (identity by default, as before;
+/// train-residual resolves mean_pose / half_range from the motion set A when asked, so a scratch
+/// run can share a normalised base's mapping for comparisons). Ours / cml: train-residual copies
+/// the base's net.action_* into the run config (provenance only; the mapping in use is the
+/// FrozenBase's, saved with the policy as base/actor/action_*).
 ///
 /// Checkpoints hold everything needed to continue bit-exactly when the simulator can save its
 /// state (tasks::StateSavingSimulator): networks, normalisers, PopArt, Adam moments and step
@@ -46,6 +59,7 @@
 #include <maskadapt/tasks/composition.hpp>
 #include <maskadapt/tasks/imitation.hpp>
 #include <maskadapt/tracking/goals.hpp>
+#include <maskadapt/train/base_policy.hpp>
 #include <maskadapt/train/config.hpp>
 #include <maskadapt/train/progress.hpp>
 #include <maskadapt/train/task_state.hpp>
@@ -169,16 +183,18 @@ inline void load_norm(const Checkpoint& c, const std::string& name, nn::RunningN
               c.get_vector<double>(name + "/m2", n.dim()));
 }
 
-/// The stage-1 actor stored in a base checkpoint (architecture from its "config" section).
-inline rl::GaussianActor<float> load_base_actor(const Checkpoint& ck, Index obs_dim, Index action_dim) {
+/// A frozen stage-1 actor and how its actions become PD targets.
+struct FrozenBase {
+  rl::GaussianActor<float> actor;
+  tasks::ActionSpace actions;  ///< PD target = offset + scale ⊙ a (identity: a is the target)
+};
+
+/// The stage-1 actor stored in a base checkpoint (architecture from its "config" section) and its
+/// action space (actor/action_offset, actor/action_scale; absent ⇒ identity). Reads only the
+/// sections `config`, `actor/params`, `actor/log_std`, `actor/norm/…`, `actor/action_offset`,
+/// `actor/action_scale`, so it works on a train-base checkpoint and on a policy-only export.
+inline FrozenBase load_base_actor(const Checkpoint& ck, Index obs_dim, Index action_dim) {
   const BaseTrainConfig bc = config_from_string(ck.get_string("config"), "base checkpoint (config)");
-  // Stage 2 composes â = w_gain·a + Δa and sends â to the simulator as PD targets: a base whose
-  // actions are normalised (PD target = offset + scale ⊙ a) would need â mapped the same way,
-  // which the residual trainers and evaluators do not do yet. Refuse rather than train on garbage.
-  require(!ck.contains("actor/action_offset") && !ck.contains("actor/action_scale"),
-          "this base maps its actions to PD targets (net.action_offset '" + bc.net.action_offset + "', net.action_scale '" +
-              bc.net.action_scale + "'); stage 2 supports only bases trained with action_offset zero and action_scale one so far",
-          {ck.source(), std::nullopt, "actor/action_offset"});
   rl::ActorCriticConfig ac;
   ac.policy_input_dim = obs_dim + kNumParts;
   ac.critic_input_dim = obs_dim;
@@ -187,11 +203,15 @@ inline rl::GaussianActor<float> load_base_actor(const Checkpoint& ck, Index obs_
   ac.activation = residual_activation(bc.net.activation);
   ac.init_log_std = bc.net.init_log_std;
   Rng dummy(0);
-  rl::GaussianActor<float> a(ac, dummy);
-  ck.copy_to<float>("actor/params", a.mean_net.params());
-  ck.copy_to<float>("actor/log_std", a.log_std.params());
-  load_norm(ck, "actor/norm", a.normalizer);
-  return a;
+  FrozenBase out{rl::GaussianActor<float>(ac, dummy), {}};
+  ck.copy_to<float>("actor/params", out.actor.mean_net.params());
+  ck.copy_to<float>("actor/log_std", out.actor.log_std.params());
+  load_norm(ck, "actor/norm", out.actor.normalizer);
+  load_hidden_groups(ck, out.actor);  // (a base trained with mask.hidden_value = mean)
+  if (ck.contains("actor/action_offset")) out.actions.offset = ck.get_vector<float>("actor/action_offset", action_dim);
+  if (ck.contains("actor/action_scale")) out.actions.scale = ck.get_vector<float>("actor/action_scale", action_dim);
+  out.actions.validate(action_dim, ck.source().empty() ? "actor/action" : ck.source() + ": actor/action");
+  return out;
 }
 
 /// The residual network settings of a run. Tracking with method cml: the base sees the full
@@ -220,6 +240,12 @@ inline rl::GaussianActor<float> scratch_base_actor(Index obs_dim, Index action_d
   return a;
 }
 
+/// The scratch method's base: the zero actor and the run config's action space (c.rl.net.action_*,
+/// which must be resolved: resolve_action_space; zero / one ⇒ the identity, as before).
+inline FrozenBase scratch_base(const ResidualTrainConfig& c, Index obs_dim, Index action_dim) {
+  return {scratch_base_actor(obs_dim, action_dim), action_space_of(c.rl, action_dim)};
+}
+
 /// An actor with the architecture of a run's frozen base (c.rl.net, which train-residual copies
 /// from the base checkpoint; scratch: the zero base). Parameters are placeholders until a
 /// checkpoint's base/ sections are loaded.
@@ -236,8 +262,8 @@ inline rl::GaussianActor<float> base_actor_like(const ResidualTrainConfig& c, In
   return rl::GaussianActor<float>(ac, r);
 }
 
-/// The residual policy (with its frozen base) stored in a train-residual checkpoint; `config`
-/// receives the run's config.
+/// The residual policy (with its frozen base and the base's action space, base/actor/action_*)
+/// stored in a train-residual checkpoint; `config` receives the run's config.
 inline adapt::ResidualPolicy<float> residual_policy_from_checkpoint(const Checkpoint& ck, const Skeleton& skel,
                                                                     ResidualTrainConfig* config = nullptr) {
   const ResidualTrainConfig c = residual_config_from_json(nlohmann::json::parse(ck.get_string("residual_config")), "checkpoint");
@@ -286,7 +312,14 @@ struct ResidualSetup {
 template <Simulator Sim>
 class ResidualTrainer {
  public:
+  /// A base with the identity action space (its actions are the PD targets).
   ResidualTrainer(Sim& sim, tasks::ResetSampler reset, rl::GaussianActor<float> base, ResidualSetup setup,
+                  ResidualTrainConfig config, ThreadPool* pool = nullptr, std::optional<FallCriteria> fall = std::nullopt)
+      : ResidualTrainer(sim, std::move(reset), FrozenBase{std::move(base), {}}, std::move(setup), std::move(config), pool,
+                        std::move(fall)) {}
+  /// `base.actions` maps the composite actions to PD targets (see the file comment). `load`
+  /// replaces the base and its action space with the checkpoint's.
+  ResidualTrainer(Sim& sim, tasks::ResetSampler reset, FrozenBase base, ResidualSetup setup,
                   ResidualTrainConfig config, ThreadPool* pool = nullptr, std::optional<FallCriteria> fall = std::nullopt)
       : cfg_((config.validate(), std::move(config))), setup_(std::move(setup)),
         task_(sim, std::move(reset), no_mask_task(cfg_.rl, std::move(fall)), cfg_.rl.run.seed, pool),
@@ -302,7 +335,8 @@ class ResidualTrainer {
       bodies_ = tracking::designated_bodies(sim.skeleton(), setup_.tracking->designated);
       rc.goal_dim = tracking::goal_dim(sim.skeleton(), setup_.tracking->designated, setup_.tracking->goal_steps);
     }
-    policy_ = adapt::ResidualPolicy<float>(std::move(base), task_.obs_dim(), action_parts(sim.skeleton()), rc, init);
+    policy_ = adapt::ResidualPolicy<float>(std::move(base.actor), task_.obs_dim(), action_parts(sim.skeleton()), rc, init,
+                                           std::move(base.actions));
     K_ = static_cast<Index>(setup_.discriminators.size()) + (setup_.tracking ? 1 : 0);
     for (const auto& d : setup_.discriminators) weights_.push_back(d.weight);
     if (setup_.tracking) weights_.push_back(setup_.tracking->weight);
@@ -357,6 +391,8 @@ class ResidualTrainer {
   const BaseTrainConfig& config() const { return cfg_.rl; }
   const ResidualTrainConfig& residual_config() const { return cfg_; }
   const adapt::ResidualPolicy<float>& policy() const { return policy_; }
+  /// The last iteration's rollout (actions: the composite â, base units).
+  const rl::RolloutBuffer<float>& rollout() const { return buf_; }
   tasks::ImitationTask<Sim>& task() { return task_; }
   const rl::DiscriminatorSet<float>& discriminators() const { return discs_; }
   Index num_objectives() const { return K_; }
@@ -610,7 +646,14 @@ class ResidualTrainer {
       st.time_inference += inf.seconds();
 
       Stopwatch sim;
-      task_.step(actions_);
+      // The task's action space is the identity: â becomes PD targets here, through the base's
+      // action space held by the policy (so a loaded checkpoint brings its own mapping along).
+      if (policy_.actions().identity()) {
+        task_.step(actions_);
+      } else {
+        policy_.to_targets(actions_, targets_);
+        task_.step(targets_);
+      }
       st.time_sim += sim.seconds();
 
       Stopwatch inf2;
@@ -734,8 +777,15 @@ class ResidualTrainer {
         policy_.log_prob(cache_, act, lp_new);
         const auto sur = rl::clipped_surrogate<float>(lp_new, lp_old, a_mb, cfg_.rl.ppo.clip, dlogp);
         adapt::ResidualPolicy<float>::log_prob_mean_grad(cache_, act, dlogp, dmu);
+        // action-bound penalty on the PD targets beyond ±π rad, as in stage 1 (target = offset +
+        // scale ⊙ μ̂, so ∂/∂μ̂ carries a factor scale; the identity's target is μ̂ itself)
         const float bound = static_cast<float>(M_PI), wb = static_cast<float>(cfg_.rl.ppo.action_bound_weight);
-        dmu.array() += wb / static_cast<float>(B) * ((mu.array() - bound).max(0.0f) + (mu.array() + bound).min(0.0f)) * 2.0f;
+        const tasks::ActionSpace& space = policy_.actions();
+        if (space.identity()) {
+          dmu.array() += wb / static_cast<float>(B) * ((mu.array() - bound).max(0.0f) + (mu.array() + bound).min(0.0f)) * 2.0f;
+        } else {
+          space.add_bound_penalty_grad(mu, bound, wb / static_cast<float>(B), bound_targets_, dmu);
+        }
         policy_.backward(cache_, dmu);
         const auto ar = actor_opt_.step(policy_.trainable_blocks());
         if (!ar.applied) ++st.skipped_updates;
@@ -856,6 +906,7 @@ class ResidualTrainer {
   nn::InferenceWorkspace<float> critic_ws_;
   nn::TrainCache<float> critic_cache_;
   MatrixXf actions_, mu_, scratch_;
+  MatrixXf targets_, bound_targets_;  ///< PD targets of a non-identity action space (collection, bound penalty)
   RowVectorXf logp_;
 };
 
