@@ -314,11 +314,7 @@ class ResidualPolicy {
       ck.put("base/actor/params", base_.mean_net.params());
       ck.put("base/actor/log_std", base_.log_std.params());
       put_norm(ck, "base/actor/norm", base_.normalizer);
-      if (!base_.hidden_groups.empty()) {  // (a base trained with mask.hidden_value = mean)
-        VectorX<std::int64_t> g(static_cast<Index>(base_.hidden_groups.size()));
-        for (Index i = 0; i < g.size(); ++i) g[i] = base_.hidden_groups[static_cast<std::size_t>(i)];
-        ck.put("base/actor/hidden_groups", g);
-      }
+      base_.save_hidden_groups(ck, "base/actor/hidden_groups");  // (a base trained with mask.hidden_value = mean)
       if (actions_.offset.size()) ck.put("base/actor/action_offset", actions_.offset);
       if (actions_.scale.size()) ck.put("base/actor/action_scale", actions_.scale);
     }
@@ -335,17 +331,7 @@ class ResidualPolicy {
       ck.copy_to<T>("base/actor/params", base_.mean_net.params());
       ck.copy_to<T>("base/actor/log_std", base_.log_std.params());
       get_norm(ck, "base/actor/norm", base_.normalizer);
-      base_.hidden_groups.clear();
-      if (ck.contains("base/actor/hidden_groups")) {
-        const Index n = base_.input_dim() - kNumParts;
-        const VectorX<std::int64_t> g = ck.get_vector<std::int64_t>("base/actor/hidden_groups", n);
-        std::vector<std::uint8_t> groups(static_cast<std::size_t>(n));
-        for (Index i = 0; i < n; ++i) {
-          require(g[i] >= 0 && g[i] < kNumParts, "body part index out of range", {ck.source(), std::nullopt, "base/actor/hidden_groups"});
-          groups[static_cast<std::size_t>(i)] = static_cast<std::uint8_t>(g[i]);
-        }
-        base_.set_hidden_groups(std::move(groups));
-      }
+      base_.load_hidden_groups(ck, "base/actor/hidden_groups", kNumParts);
       tasks::ActionSpace a;
       const Index A = action_dim();
       if (ck.contains("base/actor/action_offset")) a.offset = ck.get_vector<float>("base/actor/action_offset", A);

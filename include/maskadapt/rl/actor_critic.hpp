@@ -9,6 +9,7 @@
 ///
 /// Presets: `paper` hidden sizes [1024, 1024, 512] for both networks (the paper's); `cpu`
 /// [256, 256] (our small preset for 2-core runs and tests — not from the paper).
+#include <maskadapt/core/checkpoint.hpp>
 #include <maskadapt/core/error.hpp>
 #include <maskadapt/core/rng.hpp>
 #include <maskadapt/core/types.hpp>
@@ -118,6 +119,29 @@ struct GaussianActor {
     for (std::uint8_t g : groups)
       require(static_cast<Index>(g) < G, "group index beyond the flag rows", {{}, {}, "GaussianActor.hidden_groups"});
     hidden_groups = std::move(groups);
+  }
+
+  /// Writes hidden_groups as the int64 section `name` (nothing when they are empty).
+  void save_hidden_groups(Checkpoint& c, const std::string& name) const {
+    if (hidden_groups.empty()) return;
+    VectorX<std::int64_t> g(static_cast<Index>(hidden_groups.size()));
+    for (Index i = 0; i < g.size(); ++i) g[i] = hidden_groups[static_cast<std::size_t>(i)];
+    c.put(name, g);
+  }
+  /// Reads what save_hidden_groups wrote for an input whose last `flag_rows` rows are the group
+  /// flags; an absent section clears them (every row normalised). Throws naming the section on a
+  /// size other than input_dim − flag_rows or a group beyond the flag rows.
+  void load_hidden_groups(const Checkpoint& c, const std::string& name, Index flag_rows) {
+    hidden_groups.clear();
+    if (!c.contains(name)) return;
+    const Index n = input_dim() - flag_rows;
+    const VectorX<std::int64_t> g = c.get_vector<std::int64_t>(name, n);
+    std::vector<std::uint8_t> groups(static_cast<std::size_t>(n));
+    for (Index i = 0; i < n; ++i) {
+      require(g[i] >= 0 && g[i] < flag_rows, "body part index out of range", {c.source(), std::nullopt, name});
+      groups[static_cast<std::size_t>(i)] = static_cast<std::uint8_t>(g[i]);
+    }
+    set_hidden_groups(std::move(groups));
   }
 
   /// Mean action μ (action_dim × B) for inputs x (inference path; `scratch` holds the normalised input).

@@ -168,27 +168,14 @@ inline void save_policy(const BasePolicy& p, Checkpoint& c) {
   save_normalizer(p.disc.normalizer(), "disc/norm", c);
   if (p.actions.offset.size()) c.put("actor/action_offset", p.actions.offset);
   if (p.actions.scale.size()) c.put("actor/action_scale", p.actions.scale);
-  if (!p.ac.actor.hidden_groups.empty()) {  // mask.hidden_value = mean: the part of every observation row
-    VectorX<std::int64_t> g(static_cast<Index>(p.ac.actor.hidden_groups.size()));
-    for (Index i = 0; i < g.size(); ++i) g[i] = p.ac.actor.hidden_groups[static_cast<std::size_t>(i)];
-    c.put("actor/hidden_groups", g);
-  }
+  p.ac.actor.save_hidden_groups(c, "actor/hidden_groups");  // (mask.hidden_value = mean)
 }
 
 /// Reads `actor/hidden_groups` into `actor` when present (a policy trained with mask.hidden_value
 /// = mean); absent: the actor normalises every input row (hidden elements are zeros).
 template <class Actor>
 void load_hidden_groups(const Checkpoint& c, Actor& actor) {
-  actor.hidden_groups.clear();
-  if (!c.contains("actor/hidden_groups")) return;
-  const Index n = actor.input_dim() - kNumParts;
-  const VectorX<std::int64_t> g = c.get_vector<std::int64_t>("actor/hidden_groups", n);
-  std::vector<std::uint8_t> groups(static_cast<std::size_t>(n));
-  for (Index i = 0; i < n; ++i) {
-    require(g[i] >= 0 && g[i] < kNumParts, "body part index out of range", {c.source(), std::nullopt, "actor/hidden_groups"});
-    groups[static_cast<std::size_t>(i)] = static_cast<std::uint8_t>(g[i]);
-  }
-  actor.set_hidden_groups(std::move(groups));
+  actor.load_hidden_groups(c, "actor/hidden_groups", kNumParts);
 }
 
 /// Reads the actor's sections (actor/params, actor/log_std, actor/norm, the action space) into a
