@@ -2,13 +2,18 @@
 // sections are bit-identical, and for numeric ones how many elements differ and by how much.
 // Used to check a resume or a thread count by hand, and to measure how far two BLAS kernels take
 // the same run apart (docs/architecture.md, "What is reproducible").
+// `maskadapt checkpoint compact IN --out OUT`: the same training checkpoint without its replay
+// buffer (train::drop_replay_buffer), small enough to carry a long run from one machine or
+// session to the next; `train-base --resume OUT` continues it.
 #include "command_registry.hpp"
 
 #include <maskadapt/core/checkpoint.hpp>
+#include <maskadapt/train/base_trainer.hpp>
 
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <filesystem>
 #include <iomanip>
 #include <iostream>
 #include <memory>
@@ -102,6 +107,23 @@ const bool registered = maskadapt::cli::register_command([](CLI::App& app) {
   diff->callback([args] {
     const int different = diff_checkpoints(args->a, args->b, args->all);
     if (args->exact && different > 0) throw CLI::RuntimeError(1);
+  });
+  CLI::App* compact = ck->add_subcommand(
+      "compact", "Write a base-training checkpoint without its replay buffer (resumable, a fraction of the size)");
+  compact->add_option("IN", args->a, "training checkpoint (train-base)")->required()->check(CLI::ExistingFile);
+  compact->add_option("--out", args->b, "compacted checkpoint to write")->required();
+  compact->callback([args] {
+    using namespace maskadapt;
+    Checkpoint c = load_checkpoint(args->a);
+    require(c.contains("trainer/iteration") && c.contains("disc/adam"),
+            "not a base-training checkpoint (no trainer/iteration or disc/adam section)", {args->a, std::nullopt, "IN"});
+    const bool dropped = train::drop_replay_buffer(c);
+    save_checkpoint(args->b, c);
+    std::cout << "checkpoint compact: " << args->b << " at iteration " << c.get_int("trainer/iteration") << ", "
+              << c.get_int("trainer/samples") << " samples"
+              << (dropped ? "; replay buffer dropped" : "; it had no replay buffer") << " ("
+              << std::filesystem::file_size(args->a) / 1000000.0 << " MB -> " << std::filesystem::file_size(args->b) / 1000000.0
+              << " MB)\n";
   });
 });
 

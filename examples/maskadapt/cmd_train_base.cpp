@@ -24,7 +24,7 @@ struct TrainBaseArgs {
   std::vector<std::string> motions;
   int envs = -1, threads = -1;
   long long iterations = -1, checkpoint_every = -1;
-  double minutes = -1, lambda_mi = -1, mask_prob = -1;
+  double minutes = -1, lambda_mi = -1, mask_prob = -1, mi_target_tau = -1;
   int max_parts = -1;
   long long seed = -1, mask_warmup_samples = -1, mask_ramp_samples = -1;
   bool no_mask = false;
@@ -37,7 +37,7 @@ const std::vector<std::pair<std::string, std::string>> kFieldFlags = {
     {"run.minutes", "--minutes"},       {"run.checkpoint_every", "--checkpoint-every"},
     {"run.out_dir", "--out"},           {"env.motions", "--motions"},     {"mask.lambda_mi", "--lambda-mi"},
     {"mask.prob", "--mask-prob"},       {"mask.max_parts", "--max-parts"},
-    {"mask.warmup_samples", "--mask-warmup-samples"}, {"mask.mi_gradient", "--mi-gradient"}, {"mask.hidden_value", "--hidden-value"}, {"mask.ramp_samples", "--mask-ramp-samples"},
+    {"mask.warmup_samples", "--mask-warmup-samples"}, {"mask.mi_gradient", "--mi-gradient"}, {"mask.mi_target_tau", "--mi-target-tau"}, {"mask.hidden_value", "--hidden-value"}, {"mask.ramp_samples", "--mask-ramp-samples"},
     {"net.action_offset", "--action-offset"}, {"net.action_scale", "--action-scale"},
     {"ppo.actor_lr_schedule", "--actor-lr-schedule"}};
 
@@ -67,6 +67,7 @@ void run_train_base(const TrainBaseArgs& a) {
   if (a.mask_warmup_samples >= 0) cfg.mask.warmup_samples = a.mask_warmup_samples;
   if (a.mask_ramp_samples >= 0) cfg.mask.ramp_samples = a.mask_ramp_samples;
   if (!a.mi_gradient.empty()) cfg.mask.mi_gradient = a.mi_gradient;
+  if (a.mi_target_tau > 0) cfg.mask.mi_target_tau = a.mi_target_tau;
   if (!a.hidden_value.empty()) cfg.mask.hidden_value = a.hidden_value;
   if (a.no_mask) cfg.mask.enabled = false;
   if (!a.action_offset.empty()) cfg.net.action_offset = a.action_offset;
@@ -127,8 +128,11 @@ const bool registered = maskadapt::cli::register_command([](CLI::App& app) {
                 "samples over which the mask probability then rises linearly to --mask-prob (0 = at once)")
       ->transform(non_negative_integer());
   c->add_option("--mi-gradient", args->mi_gradient,
-                "both | target_stopped | target_frozen: what L_MI's target is and whether its gradient flows through it (docs/training.md)")
-      ->check(one_of({"both", "target_stopped", "target_frozen"}));
+                "both | target_stopped | target_frozen | target_ema: what L_MI's target is and whether its gradient flows through it (docs/training.md)")
+      ->check(one_of({"both", "target_stopped", "target_frozen", "target_ema"}));
+  c->add_option("--mi-target-tau", args->mi_target_tau,
+                "moving-average rate per iteration of the target_ema MI target, in (0, 1] (mask.mi_target_tau)")
+      ->check(real_in(0, 1, /*lo_open=*/true));
   c->add_option("--hidden-value", args->hidden_value,
                 "zero | mean: what the policy sees for a hidden observation element (mask.hidden_value, docs/training.md)")
       ->check(one_of({"zero", "mean"}));

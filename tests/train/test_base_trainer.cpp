@@ -10,6 +10,7 @@
 
 #include <cstring>
 #include <filesystem>
+#include <memory>
 
 #include <unistd.h>  // getpid: one temp file per process (the BLAS matrix runs this test in parallel)
 
@@ -172,6 +173,69 @@ TEST(BaseTrainer, MaskWarmupIsPlainAmpUntilItEndsThenMasks) {
   }
   EXPECT_GT(masked, 0.5) << "episodes started after the warm-up must be masked (p = 1)";
   expect_resume_is_bit_exact(cfg);  // resumed at iteration 2 = sample 64, masking from there
+}
+
+// mi_gradient = target_ema: no target during the warm-up (the run is plain AMP, as above); where
+// masking starts the target is the policy itself, and after each iteration's update it moves
+// by τ towards the updated policy; it is checkpointed, and a resume across the fork is bit-exact.
+TEST(BaseTrainer, EmaTargetStartsWhereMaskingStartsFollowsThePolicyAndResumes) {
+  MASKADAPT_REQUIRE_REQUESTED_BLAS_CORE();
+  auto cfg = tiny_config();
+  cfg.mask.prob = 1.0;
+  cfg.mask.warmup_samples = 64;  // 2 iterations
+  cfg.mask.hidden_value = "mean";
+  cfg.mask.mi_gradient = "target_ema";
+  cfg.mask.mi_target_tau = 0.25;
+  TinyRun run(cfg);
+  for (int i = 0; i < 2; ++i) EXPECT_EQ(run.trainer.iterate().mi_kl, 0.0);
+  const Checkpoint before = snapshot(run.trainer);
+  EXPECT_FALSE(before.contains("mi_target/params")) << "no target before masking starts";
+  const IterationStats st = run.trainer.iterate();
+  const Checkpoint after = snapshot(run.trainer);
+  ASSERT_TRUE(after.contains("mi_target/params"));
+  const VectorXf theta0 = before.get_vector<float>("actor/params"), theta1 = after.get_vector<float>("actor/params");
+  const VectorXf expected = 0.75f * theta0 + 0.25f * theta1;
+  EXPECT_LT((after.get_vector<float>("mi_target/params") - expected).cwiseAbs().maxCoeff(), 1e-6f);
+  EXPECT_GT((theta1 - theta0).cwiseAbs().maxCoeff(), 1e-4f) << "the update moved the policy";
+  EXPECT_GT(st.mi_kl, 0.0);
+  ASSERT_TRUE(st.extra.count("kl_masked_unmasked")) << "the policy's own masked/unmasked KL is logged beside mi_kl";
+  EXPECT_GT(st.extra.at("kl_masked_unmasked"), 0.0);
+  expect_resume_is_bit_exact(cfg);  // checkpoint at iteration 2 (no target), resumed across the fork
+  auto later = cfg;
+  later.mask.warmup_samples = 0;  // masked from the start: the checkpoint at iteration 2 holds a target
+  expect_resume_is_bit_exact(later);
+}
+
+// `checkpoint compact`: without its replay buffer a checkpoint still resumes — with an empty
+// buffer, deterministically (two continuations of the compact file are bit-identical), and not
+// the same run as the uninterrupted one (its discriminator saw other fake windows).
+TEST(BaseTrainer, CompactedCheckpointResumesDeterministicallyWithAnEmptyReplayBuffer) {
+  MASKADAPT_REQUIRE_REQUESTED_BLAS_CORE();
+  const auto cfg = tiny_config();
+  TinyRun first(cfg);
+  for (int i = 0; i < 2; ++i) first.trainer.iterate();
+  Checkpoint compact = snapshot(first.trainer);
+  const std::size_t full_sections = compact.size();
+  ASSERT_TRUE(drop_replay_buffer(compact));
+  EXPECT_EQ(compact.size(), full_sections - 3);
+  EXPECT_FALSE(compact.contains("replay/storage"));
+  EXPECT_NE(compact.get_string("provenance/history").find("replay buffer of 64 windows dropped"), std::string::npos);
+  EXPECT_FALSE(drop_replay_buffer(compact)) << "nothing left to drop";
+  auto continue_from = [&](const Checkpoint& c) {
+    auto other = cfg;
+    other.run.seed = 9;
+    auto run = std::make_unique<TinyRun>(other);
+    run->trainer.load(c);
+    for (int i = 0; i < 2; ++i) run->trainer.iterate();
+    Checkpoint out = snapshot(run->trainer);
+    out.erase("config");
+    return out;
+  };
+  const Checkpoint a = continue_from(compact), b = continue_from(compact);
+  expect_bit_identical(a, b);
+  EXPECT_EQ(a.get_int("replay/size"), 64) << "refilled by the two iterations after the resume";
+  for (int i = 0; i < 2; ++i) first.trainer.iterate();
+  EXPECT_NE(snapshot(first.trainer).get_vector<float>("disc/params"), a.get_vector<float>("disc/params"));
 }
 
 // mask.hidden_value = mean: the actor sees a hidden element as its running mean (0 after

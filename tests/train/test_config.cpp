@@ -135,6 +135,14 @@ TEST(TrainConfig, MaskProbabilityFollowsTheWarmupAndRamp) {
   EXPECT_EQ(error_field(R"({"mask": {"mi_gradient": "target_frozen", "hidden_value": "mean"}})"), "");
   c.mask.hidden_value = "mean";
   EXPECT_EQ(config_from_json(to_json(c)).mask.hidden_value, "mean");
+  EXPECT_EQ(error_field(R"({"mask": {"mi_gradient": "target_ema", "mi_target_tau": 0.05}})"), "");
+  EXPECT_EQ(error_field(R"({"mask": {"mi_target_tau": 0}})"), "mask.mi_target_tau");
+  EXPECT_EQ(error_field(R"({"mask": {"mi_target_tau": 1.5}})"), "mask.mi_target_tau");
+  EXPECT_EQ(error_field(R"({"mask": {"mi_target_tau": "fast"}})"), "mask.mi_target_tau");
+  c.mask.mi_gradient = "target_ema";
+  c.mask.mi_target_tau = 0.03;
+  EXPECT_EQ(config_from_json(to_json(c)).mask.mi_gradient, "target_ema");
+  EXPECT_EQ(config_from_json(to_json(c)).mask.mi_target_tau, 0.03);
 }
 
 TEST(TrainConfig, SyntaxErrorsGiveTheLine) {

@@ -24,8 +24,18 @@
 ///    (59 → 18). Choose `TargetStopped` to reproduce the paper's formulation literally.
 ///  - `TargetFrozen` — p is the policy as it was when the iteration's update began (μ(s, m⁰) of
 ///    the pre-update parameters, computed once per iteration, like PPO's old log-probs): a
-///    constant target that does not move while q is pulled towards it (mi_loss_on_frozen_target).
-///    Measured on a walking base in docs/results.md.
+///    constant target that does not move while q is pulled towards it (mi_loss_on_fixed_target).
+///    Measured on a walking base in docs/results.md: it still diverges across iterations, since
+///    each iteration's update moves μ(s, m⁰) the way it moved μ(s̄, m) and the next target starts
+///    from there (KL 4 → 8,000 in 0.5 M samples).
+///  - `TargetEma` — p is a slowly moving copy of the policy: its parameters follow the policy's
+///    as an exponential moving average, θ̄ ← (1 − τ)·θ̄ + τ·θ once per iteration (the target
+///    networks of DQN/DDPG, BYOL's teacher). The stop-gradient target of the paper's formula, kept
+///    still long enough for q to reach it. The loss is taken over every column, null-mask ones
+///    included: for those, q = π(·|s, m⁰) itself, so its KL to the target keeps the unmasked
+///    policy near the target instead of letting it drift along with every step of the masked
+///    one (with the paper's moving target that term is 0 by construction). τ = 1 gives
+///    `TargetFrozen`'s target with that anchor added.
 ///
 /// Input layout assumed by `unmasked_policy_input` / `masked_policy_input`: the policy input is
 /// [s ; mask bits] with one 0/1 row per body part (null mask = all zeros), as mask/apply.hpp
@@ -44,17 +54,28 @@
 namespace maskadapt::adapt {
 
 /// Which distributions the MI gradient flows through (see the file comment).
-enum class MiGradient { Both, TargetStopped, TargetFrozen };
+enum class MiGradient { Both, TargetStopped, TargetFrozen, TargetEma };
 
 inline MiGradient mi_gradient_from_string(const std::string& s, const std::string& field = "mi_gradient") {
   if (s == "both") return MiGradient::Both;
   if (s == "target_stopped") return MiGradient::TargetStopped;
   if (s == "target_frozen") return MiGradient::TargetFrozen;
-  throw Error("unknown MI gradient mode '" + s + "' (expected both, target_stopped or target_frozen)", {{}, {}, field});
+  if (s == "target_ema") return MiGradient::TargetEma;
+  throw Error("unknown MI gradient mode '" + s + "' (expected both, target_stopped, target_frozen or target_ema)",
+              {{}, {}, field});
 }
 inline const char* to_string(MiGradient g) {
-  return g == MiGradient::Both ? "both" : g == MiGradient::TargetStopped ? "target_stopped" : "target_frozen";
+  switch (g) {
+    case MiGradient::Both: return "both";
+    case MiGradient::TargetStopped: return "target_stopped";
+    case MiGradient::TargetFrozen: return "target_frozen";
+    case MiGradient::TargetEma: return "target_ema";
+  }
+  return "?";
 }
+/// True for the modes whose target is computed once per iteration by the trainer
+/// (mi_loss_on_fixed_target) rather than by a pass of the current network.
+inline bool has_fixed_target(MiGradient g) { return g == MiGradient::TargetFrozen || g == MiGradient::TargetEma; }
 
 /// λ_MI (paper: 1.0; 0 disables).
 struct MiLossConfig {
@@ -108,6 +129,29 @@ struct MiWorkspace {
   nn::TrainCache<T> cache, cache_full;
 };
 
+/// Which columns of a minibatch the MI term covers.
+enum class MiColumns {
+  Masked,  ///< those with a non-null mask (for the others KL(π(·|s,m⁰) ‖ π(·|s,m⁰)) = 0 exactly)
+  All,     ///< every column (a target other than the current policy: null-mask columns count too)
+};
+
+/// Writes into `cols` the columns of `masked_input` ([s̄ ; m], input_dim × B, the mask's kNumParts
+/// flag rows last) that `which` selects; returns their number K.
+template <class T>
+Index select_mi_columns(const Eigen::Ref<const MatrixX<T>>& masked_input, MiColumns which, std::vector<Index>& cols) {
+  cols.clear();
+  for (Index j = 0; j < masked_input.cols(); ++j)
+    if (which == MiColumns::All || !(masked_input.col(j).tail(kNumParts).array() == T(0)).all()) cols.push_back(j);
+  return static_cast<Index>(cols.size());
+}
+
+/// dst = src's columns `cols` (src.rows() × K).
+template <class T>
+void gather_mi_columns(const Eigen::Ref<const MatrixX<T>>& src, const std::vector<Index>& cols, MatrixX<T>& dst) {
+  dst.resize(src.rows(), static_cast<Index>(cols.size()));
+  for (std::size_t k = 0; k < cols.size(); ++k) dst.col(static_cast<Index>(k)) = src.col(cols[k]);
+}
+
 /// The MI term for a minibatch whose masked pass the caller has already run — the PPO surrogate's
 /// `forward_train` on [s̄ ; m] gave `mu_masked` (d × B) — so that the masked network pass is run
 /// once per minibatch, not twice. Only the full pass π(·|s, m⁰) is run here, and only on the K
@@ -132,18 +176,13 @@ MiLossResult mi_loss_on_masked_pass(rl::GaussianActor<T>& actor,
   require(mu_masked.rows() == d && mu_masked.cols() == B && dmu_masked.rows() == d && dmu_masked.cols() == B,
           "mu_masked and dmu_masked must be (action_dim × B)", {{}, {}, "mi_loss.mu_masked"});
   require(lambda >= 0, "lambda_MI must be >= 0", {{}, {}, "lambda_mi"});
-  w.cols.clear();
-  for (Index j = 0; j < B; ++j)
-    if (!(masked_input.col(j).tail(kNumParts).array() == T(0)).all()) w.cols.push_back(j);
-  const Index K = static_cast<Index>(w.cols.size());
+  require(!has_fixed_target(gradient), "a target computed before the update goes through mi_loss_on_fixed_target",
+          {{}, {}, "mi_gradient"});
+  const Index K = select_mi_columns<T>(masked_input, MiColumns::Masked, w.cols);
   MiLossResult r;
   if (K == 0) return r;
-  w.full_k.resize(D, K);
-  w.mu_masked_k.resize(d, K);
-  for (Index k = 0; k < K; ++k) {
-    w.full_k.col(k) = full_input.col(w.cols[static_cast<std::size_t>(k)]);
-    w.mu_masked_k.col(k) = mu_masked.col(w.cols[static_cast<std::size_t>(k)]);
-  }
+  gather_mi_columns<T>(full_input, w.cols, w.full_k);
+  gather_mi_columns<T>(mu_masked, w.cols, w.mu_masked_k);
   const bool through_target = gradient == MiGradient::Both && lambda > 0;
   actor.normalize(w.full_k, w.norm_full);
   if (through_target) {
@@ -170,18 +209,20 @@ MiLossResult mi_loss_on_masked_pass(rl::GaussianActor<T>& actor,
   return r;
 }
 
-/// The MI term against a frozen target (MiGradient::TargetFrozen): `mu_target` (d × B) holds
-/// μ(s, m⁰) of the policy as it was before this iteration's update, for the minibatch's columns;
-/// `masked_input` = [s̄ ; m] and `mu_masked` (d × B) are the surrogate's masked pass. Only the
-/// columns with a non-null mask contribute (the null mask gives q = the current unmasked policy,
-/// which PPO alone moves). L_MI is the mean over all B columns; ADDS λ·∂L_MI/∂μ_masked into
-/// `dmu_masked` (d × B) and the log-std gradient into actor.log_std.grads() when it is learned.
+/// The MI term against a target computed before the update (MiGradient::TargetFrozen: the
+/// pre-update policy; MiGradient::TargetEma: the moving-average copy): `mu_target` (d × B) holds
+/// the target's μ(s, m⁰) for the minibatch's columns; `masked_input` = [s̄ ; m] and `mu_masked`
+/// (d × B) are the surrogate's masked pass. `columns` says which columns contribute (`Masked` for
+/// TargetFrozen, `All` for TargetEma, whose null-mask columns anchor the unmasked policy to the
+/// target). L_MI is the mean over all B columns; ADDS λ·∂L_MI/∂μ_masked into `dmu_masked`
+/// (d × B) and the log-std gradient into actor.log_std.grads() when it is learned. Nothing flows
+/// into the target.
 template <class T>
-MiLossResult mi_loss_on_frozen_target(rl::GaussianActor<T>& actor,
-                                      const std::type_identity_t<Eigen::Ref<const MatrixX<T>>>& mu_target,
-                                      const std::type_identity_t<Eigen::Ref<const MatrixX<T>>>& masked_input,
-                                      const std::type_identity_t<Eigen::Ref<const MatrixX<T>>>& mu_masked, double lambda,
-                                      MiWorkspace<T>& w, MatrixX<T>& dmu_masked) {
+MiLossResult mi_loss_on_fixed_target(rl::GaussianActor<T>& actor,
+                                     const std::type_identity_t<Eigen::Ref<const MatrixX<T>>>& mu_target,
+                                     const std::type_identity_t<Eigen::Ref<const MatrixX<T>>>& masked_input,
+                                     const std::type_identity_t<Eigen::Ref<const MatrixX<T>>>& mu_masked, double lambda,
+                                     MiWorkspace<T>& w, MatrixX<T>& dmu_masked, MiColumns columns) {
   const Index B = masked_input.cols(), d = actor.action_dim();
   require(masked_input.rows() == actor.input_dim() && B > 0, "masked input must be (policy_input_dim × B) with B > 0",
           {{}, {}, "mi_loss"});
@@ -189,18 +230,11 @@ MiLossResult mi_loss_on_frozen_target(rl::GaussianActor<T>& actor,
               dmu_masked.rows() == d && dmu_masked.cols() == B,
           "mu_target, mu_masked and dmu_masked must be (action_dim × B)", {{}, {}, "mi_loss.mu_target"});
   require(lambda >= 0, "lambda_MI must be >= 0", {{}, {}, "lambda_mi"});
-  w.cols.clear();
-  for (Index j = 0; j < B; ++j)
-    if (!(masked_input.col(j).tail(kNumParts).array() == T(0)).all()) w.cols.push_back(j);
-  const Index K = static_cast<Index>(w.cols.size());
+  const Index K = select_mi_columns<T>(masked_input, columns, w.cols);
   MiLossResult r;
   if (K == 0) return r;
-  w.mu_full.resize(d, K);
-  w.mu_masked_k.resize(d, K);
-  for (Index k = 0; k < K; ++k) {
-    w.mu_full.col(k) = mu_target.col(w.cols[static_cast<std::size_t>(k)]);
-    w.mu_masked_k.col(k) = mu_masked.col(w.cols[static_cast<std::size_t>(k)]);
-  }
+  gather_mi_columns<T>(mu_target, w.cols, w.mu_full);
+  gather_mi_columns<T>(mu_masked, w.cols, w.mu_masked_k);
   const double share = static_cast<double>(K) / static_cast<double>(B);
   w.dmu_k.setZero(d, K);
   w.dlog_std.setZero(d, 1);
@@ -213,6 +247,16 @@ MiLossResult mi_loss_on_frozen_target(rl::GaussianActor<T>& actor,
     if (actor.learn_log_std) actor.log_std.grads() += w.dlog_std.col(0);
   }
   return r;
+}
+
+/// θ̄ ← (1 − τ)·θ̄ + τ·θ: one step of the moving-average target (MiGradient::TargetEma) towards
+/// the policy's mean network (same architecture; only the parameters move).
+template <class T>
+void update_ema_target(nn::Mlp<T>& target, const nn::Mlp<T>& policy, double tau) {
+  require(tau > 0 && tau <= 1, "EMA rate must be in (0, 1]", {{}, {}, "mask.mi_target_tau"});
+  require(target.num_params() == policy.num_params(), "EMA target and policy differ in size",
+          {{}, {}, "mi_target"});
+  target.params() = (T(1) - static_cast<T>(tau)) * target.params() + static_cast<T>(tau) * policy.params();
 }
 
 /// Whole MI loss for `actor`: full_input = policy input with the null mask (input_dim × B),

@@ -10,7 +10,9 @@
 ///     r = scale·(−log(max(1 − D, 1e−4))) (or the LSGAN reward);
 ///  3. GAE (γ, λ) with terminations (no bootstrap) and truncations (bootstrap with V(final s));
 ///  4. PPO epochs over minibatches: clipped surrogate + critic_weight·value loss + λ_MI·L_MI,
-///     L_MI = KL(π(·|s, m⁰) ‖ π(·|s̄, m)) with the full-observation policy as stop-gradient target;
+///     L_MI = KL(π(·|s, m⁰) ‖ π(·|s̄, m)); mask.mi_gradient says what the target is (the current
+///     policy, with or without its gradient; the pre-update policy; or a moving-average copy,
+///     updated after the epochs — adapt/mi_loss.hpp);
 ///  5. discriminator steps: motion-library windows (real) vs fresh + replayed agent windows.
 /// Every optimiser step is checked (nn::Adam): a non-finite gradient skips the step, keeps the
 /// last good parameters, and is counted in `skipped_updates`.
@@ -66,6 +68,25 @@ inline tasks::ImitationTaskConfig task_config(const BaseTrainConfig& c, std::opt
   t.max_masked_parts = c.mask.max_parts;
   t.actions = action_space_of(c, -1);
   return t;
+}
+
+/// Drops the discriminator's replay buffer from a base-trainer checkpoint — 107 of its 123 MB at
+/// the cpu preset — so that a run can be carried between machines or committed and continued
+/// (`maskadapt checkpoint compact`). Everything else stays as saved: networks, optimiser moments,
+/// learning rate, normalisers, random streams, simulator and episode states. BaseTrainer::load
+/// then starts with an empty replay buffer, so the next discriminator batches take their fake
+/// half from fresh windows only, as in a run's first iteration, until it has filled again
+/// (disc.replay_size windows): the continuation is deterministic given the compact file but not
+/// bit-identical to the uninterrupted run. Records the drop in `provenance/history`. Returns
+/// whether there was a replay buffer to drop.
+inline bool drop_replay_buffer(Checkpoint& c) {
+  if (!c.contains("replay/storage")) return false;
+  const std::int64_t windows = c.get_int("replay/size");
+  for (const char* name : {"replay/storage", "replay/size", "replay/head"}) c.erase(name);
+  const std::string history = c.contains("provenance/history") ? c.get_string("provenance/history") : std::string();
+  c.put_string("provenance/history", history + "(compacted: replay buffer of " + std::to_string(windows) +
+                                         " windows dropped; the continuation refills it)\n");
+  return true;
 }
 
 template <Simulator Sim>
@@ -162,6 +183,7 @@ class BaseTrainer {
     c.put("replay/storage", replay_.storage());
     c.put_int("replay/size", replay_.size());
     c.put_int("replay/head", replay_.head());
+    if (mi_target_net_.num_params() > 0) c.put("mi_target/params", mi_target_net_.params());
     c.put_rng("trainer/rng", rng_);
     c.put_int("trainer/iteration", iteration_);
     c.put_int("trainer/samples", samples_);
@@ -195,8 +217,17 @@ class BaseTrainer {
     }
     critic_opt_.set_step_count(c.get_int("critic/adam_steps"));
     policy_.disc.optimizer().set_step_count(c.get_int("disc/adam_steps"));
-    replay_.restore(c.get_matrix<float>("replay/storage", task_.amp_dim(), cfg_.disc.replay_size),
-                    c.get_int("replay/size"), c.get_int("replay/head"));
+    if (c.contains("replay/storage"))
+      replay_.restore(c.get_matrix<float>("replay/storage", task_.amp_dim(), cfg_.disc.replay_size),
+                      c.get_int("replay/size"), c.get_int("replay/head"));
+    else  // a compacted checkpoint (drop_replay_buffer): the buffer refills from the next iterations
+      replay_ = rl::ReplayBuffer<float>(task_.amp_dim(), cfg_.disc.replay_size);
+    if (c.contains("mi_target/params")) {  // (absent before masking started: the target starts at the policy then)
+      mi_target_net_ = policy_.ac.actor.mean_net;
+      c.copy_to<float>("mi_target/params", mi_target_net_.params());
+    } else {
+      mi_target_net_ = nn::Mlp<float>();
+    }
     rng_.set_state(c.get_rng("trainer/rng"));
     iteration_ = c.get_int("trainer/iteration");
     samples_ = c.get_int("trainer/samples");
@@ -287,11 +318,31 @@ class BaseTrainer {
     int count = 0;
     MatrixXf pin, act, obs, full, norm_in, norm_obs, dmu, dv, target, vold, mu_target;
     RowVectorXf lp_old, a_mb, lp_new, dlogp;
-    const bool frozen_target = cfg_.mask.enabled && mi_gradient_ == adapt::MiGradient::TargetFrozen;
-    if (frozen_target) {  // μ(s, m⁰) of the pre-update policy for every sample: L_MI's fixed target
+    // No target while no episode is masked (the warm-up): the warm-up stays bit-identical to plain
+    // AMP in every gradient mode, and the EMA target starts from the policy where masking starts.
+    const bool fixed_target =
+        cfg_.mask.enabled && task_.config().mask_prob > 0 && adapt::has_fixed_target(mi_gradient_);
+    const bool ema_target = fixed_target && mi_gradient_ == adapt::MiGradient::TargetEma;
+    if (fixed_target) {  // μ(s, m⁰) of the target policy for every sample, computed before the update
       adapt::unmasked_policy_input<float>(buf_.obs, task_.policy_input_dim(), unmasked_inputs_);
       frozen_mu_.resize(actor.action_dim(), n);
-      actor.mean(unmasked_inputs_, frozen_mu_, actor_ws_, scratch_);
+      if (ema_target) {
+        if (mi_target_net_.num_params() == 0) mi_target_net_ = actor.mean_net;  // starts at the policy
+        actor.normalize(unmasked_inputs_, scratch_);
+        mi_target_net_.forward(scratch_, frozen_mu_, actor_ws_);
+      } else {
+        actor.mean(unmasked_inputs_, frozen_mu_, actor_ws_, scratch_);
+      }
+      // mi_kl then measures the distance to the target; the log also gets the pre-update policy's
+      // own masked/unmasked KL over the rollout (what mi_kl is in the other modes)
+      diag_full_mu_.resize(actor.action_dim(), ema_target ? n : 0);
+      if (ema_target) actor.mean(unmasked_inputs_, diag_full_mu_, actor_ws_, scratch_);
+      diag_masked_mu_.resize(actor.action_dim(), n);
+      actor.mean(buf_.policy_input, diag_masked_mu_, actor_ws_, scratch_);
+      st.extra["kl_masked_unmasked"] = static_cast<double>(
+          nn::kl_diag_gaussian<float>(ema_target ? diag_full_mu_ : frozen_mu_, actor.log_std_col(), diag_masked_mu_,
+                                      actor.log_std_col())
+              .mean());
     }
     for (int epoch = 0; epoch < cfg_.ppo.epochs; ++epoch) {
       for (const auto& idx : rl::minibatch_indices(n, nmb, rng_)) {
@@ -323,15 +374,15 @@ class BaseTrainer {
         policy_.actions.add_bound_penalty_grad(mu, static_cast<float>(M_PI), wb / static_cast<float>(B), bound_targets_, dmu);
         // λ_MI·L_MI reuses the surrogate's masked pass: its ∂/∂μ joins dmu before the one backward
         double mi_kl = 0;
-        if (cfg_.mask.enabled) {
-          if (frozen_target) {
-            rl::gather_columns(frozen_mu_, idx, mu_target);
-            mi_kl = adapt::mi_loss_on_frozen_target<float>(actor, mu_target, pin, mu, cfg_.mask.lambda_mi, mi_ws_, dmu).kl;
-          } else {
-            adapt::unmasked_policy_input<float>(obs, task_.policy_input_dim(), full);
-            mi_kl = adapt::mi_loss_on_masked_pass<float>(actor, full, pin, mu, cfg_.mask.lambda_mi, mi_ws_, mi_gradient_, dmu)
-                        .kl;
-          }
+        if (fixed_target) {
+          rl::gather_columns(frozen_mu_, idx, mu_target);
+          mi_kl = adapt::mi_loss_on_fixed_target<float>(actor, mu_target, pin, mu, cfg_.mask.lambda_mi, mi_ws_, dmu,
+                                                        ema_target ? adapt::MiColumns::All : adapt::MiColumns::Masked)
+                      .kl;
+        } else if (cfg_.mask.enabled && !adapt::has_fixed_target(mi_gradient_)) {
+          adapt::unmasked_policy_input<float>(obs, task_.policy_input_dim(), full);
+          mi_kl = adapt::mi_loss_on_masked_pass<float>(actor, full, pin, mu, cfg_.mask.lambda_mi, mi_ws_, mi_gradient_, dmu)
+                      .kl;
         }
         actor.mean_net.backward(actor_cache_, dmu, actor.mean_net.grads());
         if (actor.learn_log_std && dls.size()) actor.log_std.grads() += dls.col(0);
@@ -365,6 +416,7 @@ class BaseTrainer {
     st.grad_norm = sum_gn / count;
     st.entropy = nn::gaussian_entropy<float>(actor.log_std_col())(0);
     st.actor_lr = actor_opt_.config().lr;
+    if (ema_target) adapt::update_ema_target(mi_target_net_, actor.mean_net, cfg_.mask.mi_target_tau);
   }
 
   // ---- 5. discriminator -------------------------------------------------------------------
@@ -418,7 +470,9 @@ class BaseTrainer {
   rl::ReplayBuffer<float> replay_;
   long long iteration_ = 0, samples_ = 0;
   MatrixXf unmasked_inputs_;  ///< [s ; 0] of the rollout (policy_input_dim × N·H), hidden_value = mean
-  MatrixXf frozen_mu_;        ///< (action_dim × N·H) μ(s, m⁰) before the update (mi_gradient target_frozen)
+  MatrixXf frozen_mu_;        ///< (action_dim × N·H) the MI target's μ(s, m⁰) (target_frozen, target_ema)
+  nn::Mlp<float> mi_target_net_;  ///< target_ema: moving average of actor.mean_net (empty until masking starts)
+  MatrixXf diag_full_mu_, diag_masked_mu_;  ///< (action_dim × N·H) μ(s, m⁰), μ(s̄, m): the logged masked/unmasked KL
   std::string provenance_;    ///< one line per start / resume (provenance/history)
   double train_seconds_ = 0;  ///< wall seconds in iterate(), all chunks (provenance/train_seconds)
   // workspaces (collection path allocates nothing once sized)

@@ -70,8 +70,13 @@ struct MaskConfig {
   /// "both": exact KL gradient through both distributions (default; stable);
   /// "target_stopped": the unmasked policy is a constant target (the paper's formula, literally —
   /// it diverged in our measurements, see adapt/mi_loss.hpp and docs/results.md);
-  /// "target_frozen": the target is the pre-update policy of the iteration (adapt/mi_loss.hpp).
+  /// "target_frozen": the target is the pre-update policy of the iteration (adapt/mi_loss.hpp);
+  /// "target_ema": the target is a moving-average copy of the policy (rate `mi_target_tau` per
+  /// iteration), and null-mask samples count too, anchoring the unmasked policy to it.
   std::string mi_gradient = "both";
+  /// τ of mi_gradient = "target_ema": θ̄ ← (1 − τ)·θ̄ + τ·θ after every iteration's update, so
+  /// the target follows the policy with a time constant of about 1/τ iterations.
+  double mi_target_tau = 0.01;
   /// Masking curriculum (a lever of issue 14, not in the paper): before `warmup_samples` the mask
   /// probability is 0 — plain AMP with the mask bits present and all zero, so L_MI is exactly 0 —
   /// then it rises linearly to `prob` over `ramp_samples` (0: at once). The objective stays
@@ -168,6 +173,7 @@ struct BaseTrainConfig {
         {"env.termination_height", env.termination_height},
         {"mask.prob", mask.prob},
         {"mask.lambda_mi", mask.lambda_mi},
+        {"mask.mi_target_tau", mask.mi_target_tau},
         {"net.init_log_std", net.init_log_std},
         {"ppo.gamma", ppo.gamma},
         {"ppo.gae_lambda", ppo.gae_lambda},
@@ -199,8 +205,10 @@ struct BaseTrainConfig {
     check(mask.warmup_samples >= 0, "mask.warmup_samples", "must be ≥ 0");
     check(mask.hidden_value == "zero" || mask.hidden_value == "mean", "mask.hidden_value", "expected zero or mean");
     check(mask.ramp_samples >= 0, "mask.ramp_samples", "must be ≥ 0");
-    check(mask.mi_gradient == "both" || mask.mi_gradient == "target_stopped" || mask.mi_gradient == "target_frozen",
-          "mask.mi_gradient", "must be \"both\", \"target_stopped\" or \"target_frozen\"");
+    check(mask.mi_gradient == "both" || mask.mi_gradient == "target_stopped" || mask.mi_gradient == "target_frozen" ||
+              mask.mi_gradient == "target_ema",
+          "mask.mi_gradient", "must be \"both\", \"target_stopped\", \"target_frozen\" or \"target_ema\"");
+    check(mask.mi_target_tau > 0 && mask.mi_target_tau <= 1, "mask.mi_target_tau", "must be in (0, 1]");
     for (const auto* h : {&net.actor_hidden, &net.critic_hidden, &net.disc_hidden})
       for (Index n : *h) check(n >= 1, h == &net.actor_hidden ? "net.actor_hidden" : h == &net.critic_hidden ? "net.critic_hidden" : "net.disc_hidden", "layer sizes must be ≥ 1");
     check(net.action_offset == "zero" || net.action_offset == "mean_pose" || net.action_offset == "mid_range",
@@ -278,7 +286,7 @@ inline nlohmann::json to_json(const BaseTrainConfig& c) {
               {"termination_height", c.env.termination_height},
               {"early_termination", c.env.early_termination}};
   j["mask"] = {{"enabled", c.mask.enabled}, {"prob", c.mask.prob}, {"max_parts", c.mask.max_parts},
-               {"lambda_mi", c.mask.lambda_mi}, {"mi_gradient", c.mask.mi_gradient},
+               {"lambda_mi", c.mask.lambda_mi}, {"mi_gradient", c.mask.mi_gradient}, {"mi_target_tau", c.mask.mi_target_tau},
                {"warmup_samples", c.mask.warmup_samples}, {"ramp_samples", c.mask.ramp_samples},
                {"hidden_value", c.mask.hidden_value}};
   j["net"] = {{"actor_hidden", c.net.actor_hidden}, {"critic_hidden", c.net.critic_hidden},
@@ -359,6 +367,7 @@ inline BaseTrainConfig config_from_json(const nlohmann::json& j, const std::stri
     r.get("max_parts", c.mask.max_parts);
     r.get("lambda_mi", c.mask.lambda_mi);
     r.get("mi_gradient", c.mask.mi_gradient);
+    r.get("mi_target_tau", c.mask.mi_target_tau);
     r.get("warmup_samples", c.mask.warmup_samples);
     r.get("ramp_samples", c.mask.ramp_samples);
     r.get("hidden_value", c.mask.hidden_value);
