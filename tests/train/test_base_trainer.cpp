@@ -1,6 +1,7 @@
 // The stage-1 trainer on the tiny analytic simulator: bit-exact resume (2 + 2 == 4 iterations),
 // checkpoint round trip, statistics, and config-driven network sizes.
 #include "tiny_sim.hpp"
+#include "trainer_test_helpers.hpp"
 
 #include <maskadapt/train/base_trainer.hpp>
 #include <maskadapt/train/residual_trainer.hpp>
@@ -16,6 +17,7 @@
 
 using namespace maskadapt;
 using namespace maskadapt::train;
+using maskadapt::testing::expect_bit_identical;
 using maskadapt::testing::TinyWalkerSim;
 
 namespace {
@@ -52,26 +54,7 @@ RealWindowSampler swing_windows(const Skeleton& skel) {
   };
 }
 
-BaseTrainConfig tiny_config() {
-  BaseTrainConfig c = cpu_preset();
-  c.env.num_envs = 4;
-  c.env.episode_seconds = 1.0;
-  c.env.termination_height = 0.8;
-  c.net.actor_hidden = {16, 16};
-  c.net.critic_hidden = {16};
-  c.net.disc_hidden = {16};
-  c.net.init_log_std = -1.0;
-  c.ppo.horizon = 8;
-  c.ppo.epochs = 2;
-  c.ppo.minibatch_size = 8;
-  c.ppo.actor_lr = 1e-3;
-  c.ppo.critic_lr = 1e-3;
-  c.disc.lr = 1e-3;
-  c.disc.batch_size = 8;
-  c.disc.replay_size = 64;
-  c.run.seed = 42;
-  return c;
-}
+BaseTrainConfig tiny_config() { return maskadapt::testing::tiny_walker_config(); }
 
 struct TinyRun {
   TinyWalkerSim sim;
@@ -86,19 +69,6 @@ Checkpoint snapshot(const BaseTrainer<TinyWalkerSim>& t) {
   Checkpoint c;
   t.save(c);
   return c;
-}
-
-// (provenance/ sections — command lines, wall time — describe the run and are not compared)
-void expect_bit_identical(const Checkpoint& a, const Checkpoint& b) {
-  ASSERT_EQ(a.names(), b.names());
-  for (const auto& name : a.names()) {
-    if (name.starts_with("provenance/")) continue;
-    const auto& sa = a.section(name);
-    const auto& sb = b.section(name);
-    ASSERT_EQ(sa.shape, sb.shape) << name;
-    ASSERT_EQ(sa.data.size(), sb.data.size()) << name;
-    EXPECT_EQ(0, std::memcmp(sa.data.data(), sb.data.data(), sa.data.size())) << "section differs: " << name;
-  }
 }
 
 // 2 iterations, checkpoint, a fresh trainer (other seed) loads it and runs 2 more: everything

@@ -9,6 +9,7 @@
 
 #include <gtest/gtest.h>
 #include "../blas_kernel.hpp"
+#include "trainer_test_helpers.hpp"
 
 #include <cstring>
 #include <filesystem>
@@ -17,6 +18,7 @@
 
 using namespace maskadapt;
 using namespace maskadapt::train;
+using maskadapt::testing::expect_bit_identical;
 
 static_assert(tasks::StateSavingSimulator<MujocoHumanoidSim>, "the MuJoCo humanoid must support exact state save/restore");
 
@@ -44,18 +46,6 @@ BaseTrainConfig tiny_config() {
   c.run.seed = 5;
   c.run.threads = 1;
   return c;
-}
-
-// (provenance/ sections — command lines, wall time — describe the run and are not compared)
-void expect_bit_identical(const Checkpoint& a, const Checkpoint& b) {
-  ASSERT_EQ(a.names(), b.names());
-  for (const auto& name : a.names()) {
-    if (name.starts_with("provenance/")) continue;
-    const auto& sa = a.section(name);
-    const auto& sb = b.section(name);
-    ASSERT_EQ(sa.data.size(), sb.data.size()) << name;
-    EXPECT_EQ(0, std::memcmp(sa.data.data(), sb.data.data(), sa.data.size())) << "section differs: " << name;
-  }
 }
 
 }  // namespace

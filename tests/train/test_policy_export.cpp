@@ -3,6 +3,7 @@
 // (load_base_policy and stage 2's load_base_actor read it), dims / kind / missing sections
 // refused naming the section, provenance carried over.
 #include "tiny_sim.hpp"
+#include "trainer_test_helpers.hpp"
 
 #include <maskadapt/train/base_trainer.hpp>
 #include <maskadapt/train/policy_export.hpp>
@@ -26,23 +27,7 @@ using maskadapt::testing::TinyWalkerSim;
 
 namespace {
 
-BaseTrainConfig tiny_config() {
-  BaseTrainConfig c = cpu_preset();
-  c.env.num_envs = 4;
-  c.env.episode_seconds = 1.0;
-  c.env.termination_height = 0.8;
-  c.net.actor_hidden = {16, 16};
-  c.net.critic_hidden = {16};
-  c.net.disc_hidden = {16};
-  c.net.init_log_std = -1.0;
-  c.ppo.horizon = 8;
-  c.ppo.epochs = 1;
-  c.ppo.minibatch_size = 8;
-  c.disc.batch_size = 8;
-  c.disc.replay_size = 256;
-  c.run.seed = 5;
-  return c;
-}
+BaseTrainConfig tiny_config() { return maskadapt::testing::tiny_walker_config(); }
 
 // A trainer on the tiny walker after two iterations (upright resets with small random joint
 // angles; "real" discriminator windows of uniform noise: what they are does not matter here).
