@@ -12,6 +12,7 @@
 #   b_ours/switch.json                                → switch_before.png, switch_after.png
 #   track_ours/play.json                              → tracking.png
 #   ablation/{amp,mask_no_mi,mi_0.1,mi_1.0}/log.jsonl → training_logs.png (episode_length, mi_kl)
+# and, from models/ with the built `maskadapt` (MASKADAPT_CLI), shipped_walker.png (SHIPPED_T, default 2 s).
 # Times: WALK_T (default 0.6 s: the short CPU-trained bases fall after ≈1 s), SWITCH_T (the switch, default 5 s; pictures at SWITCH_T − 1 s and
 # SWITCH_T + 1.5 s), TRACK_T (default 0.6 s, before the fall).
 set -uo pipefail
@@ -103,6 +104,22 @@ if ((${#logs[@]} > 0)); then
 else
   echo "screenshots: skip $picture: no ablation logs under $RUNS/ablation"
   skipped=$((skipped + 1))
+fi
+
+# (e) the shipped walking base (README's first screen): 10 s of `play --deterministic` from seed 1.
+picture=shipped_walker.png
+model="$repo/models/amp_walk_bandai.bin"
+cli="${MASKADAPT_CLI:-$repo/build/bin/maskadapt}"
+if have "$model" "$cli"; then
+  rollout="$(mktemp -d)/shipped_walker.json"
+  if (cd "$repo" && "$cli" play models/amp_walk_bandai.bin --deterministic --seconds 10 --seed 1 --rollout "$rollout" >/dev/null); then
+    command_of "$rollout"
+    take "$picture" --rollout "$rollout" --label "models/amp_walk_bandai.bin, play --deterministic --seed 1, null mask" \
+      --time "${SHIPPED_T:-2}"
+  else
+    echo "screenshots: $picture: maskadapt play failed" >&2
+    failed=$((failed + 1))
+  fi
 fi
 
 echo "screenshots: $made written to $OUT, $skipped skipped, $failed failed"
