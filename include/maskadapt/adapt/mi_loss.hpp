@@ -16,7 +16,7 @@
 /// Gradient modes (`MiGradient`):
 ///  - `TargetStopped` — the form written above: p is a constant target, only q gets gradients.
 ///  - `Both` (default) — the exact gradient of KL(p‖q) w.r.t. the shared parameters, through p
-///    and q. Measured (tests/adapt/test_mi_loss.cpp, `MiLoss.StoppedTargetDivergesOnAFixedBatch`;
+///    and q. Measured (tests/adapt/test_mi_loss.cpp, `MiLoss.OnAFixedBatchTheStoppedTargetDivergesTheExactGradientConvergesTheEmaTargetStaysBounded`;
 ///    docs/algorithms.md): with one shared network, the stopped-target update is unstable — a
 ///    step that moves μ(s̄, m) towards μ(s, m⁰) moves μ(s, m⁰) further the same way (the full input
 ///    has more non-zero features), so on a fixed batch KL grows geometrically under Adam
