@@ -170,6 +170,9 @@ TEST(BaseTrainer, EmaTargetStartsWhereMaskingStartsFollowsThePolicyAndResumes) {
   EXPECT_GT(st.mi_kl, 0.0);
   ASSERT_TRUE(st.extra.count("kl_masked_unmasked")) << "the policy's own masked/unmasked KL is logged beside mi_kl";
   EXPECT_GT(st.extra.at("kl_masked_unmasked"), 0.0);
+  // the target starts as the policy itself: before this iteration's update the two are one
+  ASSERT_TRUE(st.extra.count("kl_target_unmasked"));
+  EXPECT_EQ(st.extra.at("kl_target_unmasked"), 0.0);
   expect_resume_is_bit_exact(cfg);  // checkpoint at iteration 2 (no target), resumed across the fork
   auto later = cfg;
   later.mask.warmup_samples = 0;  // masked from the start: the checkpoint at iteration 2 holds a target

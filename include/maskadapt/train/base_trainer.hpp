@@ -343,6 +343,9 @@ class BaseTrainer {
           nn::kl_diag_gaussian<float>(ema_target ? diag_full_mu_ : frozen_mu_, actor.log_std_col(), diag_masked_mu_,
                                       actor.log_std_col())
               .mean());
+      if (ema_target)  // how far the unmasked policy is from its target: the drift the anchor holds back
+        st.extra["kl_target_unmasked"] = static_cast<double>(
+            nn::kl_diag_gaussian<float>(frozen_mu_, actor.log_std_col(), diag_full_mu_, actor.log_std_col()).mean());
     }
     for (int epoch = 0; epoch < cfg_.ppo.epochs; ++epoch) {
       for (const auto& idx : rl::minibatch_indices(n, nmb, rng_)) {
