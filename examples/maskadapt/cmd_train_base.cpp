@@ -1,4 +1,5 @@
 // `maskadapt train-base`: stage 1, the mask-invariant AMP base policy on the MuJoCo humanoid.
+#include "stop_signals.hpp"
 #include "cli_checks.hpp"
 #include "command_registry.hpp"
 
@@ -93,7 +94,7 @@ void run_train_base(const TrainBaseArgs& a) {
   trainer.add_provenance(cli::provenance_line() + (resume ? " (resumed at iteration " + std::to_string(trainer.iteration()) +
                                                                 ", sample " + std::to_string(trainer.samples()) + ")"
                                                           : std::string()));
-  const auto st = run_training(trainer, RunOptions{static_cast<bool>(resume)});
+  const auto st = run_training(trainer, RunOptions{static_cast<bool>(resume), &std::cout, cli::stop_training_on_signals()});
   std::cout << "train-base: done, " << trainer.iteration() << " iterations, " << trainer.samples()
             << " samples; checkpoint " << cfg.run.out_dir << "/checkpoint.bin, log " << cfg.run.out_dir << "/log.jsonl\n";
   (void)st;

@@ -3,6 +3,7 @@
 // viewer-rollout export) and `maskadapt eval-residual` (composition H_norm table or tracking
 // metrics, JSON). Residual playback lives here as its own subcommand so the trainer engineer's
 // `play` stays untouched.
+#include "stop_signals.hpp"
 #include "cli_checks.hpp"
 #include "command_registry.hpp"
 
@@ -235,7 +236,7 @@ void run_train_residual(const Args& a) {
   std::cout << "train-residual: " << describe_actions(trainer.policy().actions(), c.rl.net) << "\n";
   std::filesystem::create_directories(c.rl.run.out_dir);
   std::ofstream(c.rl.run.out_dir + "/residual_config.json") << to_json(c).dump(2) << "\n";
-  run_training(trainer, RunOptions{static_cast<bool>(resume)});
+  run_training(trainer, RunOptions{static_cast<bool>(resume), &std::cout, cli::stop_training_on_signals()});
   std::cout << "train-residual: done, " << trainer.iteration() << " iterations; checkpoint " << c.rl.run.out_dir
             << "/checkpoint.bin";
   if (c.task == "tracking") std::cout << "; last tracking reward " << trainer.last_tracking_reward();

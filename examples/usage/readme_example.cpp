@@ -1,5 +1,5 @@
-// The README's usage example: load the shipped walking base policy (models/, a policy-only
-// export) and let it drive the reference humanoid on MuJoCo for 10 s with a part mask, from a
+// The README's usage example: load the shipped mask-invariant base policy (models/, a policy-only
+// export) and let it drive the reference humanoid on MuJoCo for 10 s with both legs masked (or another part mask), from a
 // frame of the built-in synthetic walk. Built by CMake and run by ctest, so the README never drifts
 // from the API. Usage: readme_example [MODEL] [MASK]   (MASK e.g. none, arms, left_leg,right_leg)
 #include <maskadapt/humanoid/observation.hpp>
@@ -14,8 +14,8 @@
 
 int main(int argc, char** argv) try {
   using namespace maskadapt;
-  const std::string model = argc > 1 ? argv[1] : MASKADAPT_MODELS_DIR "/amp_walk_bandai.bin";
-  const PartMask mask = PartMask::parse(argc > 2 ? argv[2] : "none", "MASK");
+  const std::string model = argc > 1 ? argv[1] : MASKADAPT_MODELS_DIR "/mask_mi_walk_bandai.bin";
+  const PartMask mask = PartMask::parse(argc > 2 ? argv[2] : "left_leg,right_leg", "MASK");
 
   ThreadPool pool(2);
   MujocoHumanoidSim sim(/*num_envs=*/4, pool);                     // 22 bodies, 63 PD-driven DoF, 30 Hz
@@ -28,7 +28,8 @@ int main(int argc, char** argv) try {
 
   MotionLibrary walk;                                              // start mid-stride: a frame of the
   walk.add(synthetic_walk());                                      // built-in walk, with its velocities
-  const KinematicState start = walk.state(0, 0.5);
+  const KinematicState start = walk.state(0, 0.1);                 // (not the Bandai walks it learned
+                                                                   //  from: some phases make it fall)
   for (std::size_t e = 0; e < sim.num_envs(); ++e) sim.reset(e, start);
 
   const PartElements parts(observation_parts(skel));               // every feature → its body part

@@ -45,4 +45,17 @@ execute_process(COMMAND ${CLI} checkpoint compact ${CONFIG} --out ${OUT}/bad.bin
 if(rc EQUAL 0 OR NOT err MATCHES "smoke.json")
   message(FATAL_ERROR "checkpoint compact accepted a file that is no checkpoint, or did not name it: ${err}")
 endif()
+# SIGTERM (what ends a session's background run) stops the run cleanly: exit 0, a checkpoint at
+# the iteration reached, and that checkpoint resumes
+execute_process(COMMAND timeout --preserve-status -s TERM 6 ${CLI} train-base --config ${CONFIG} --out ${OUT}/stopped
+                        --iterations 1000000 --checkpoint-every 1000000
+                RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err)
+if(NOT rc EQUAL 0 OR NOT out MATCHES "stop requested: checkpoint at iteration [1-9]")
+  message(FATAL_ERROR "train-base did not stop cleanly on SIGTERM (${rc}): ${out}${err}")
+endif()
+execute_process(COMMAND ${CLI} checkpoint compact ${OUT}/stopped/checkpoint.bin --out ${OUT}/stopped/compact.bin
+                RESULT_VARIABLE rc OUTPUT_VARIABLE out)
+if(NOT rc EQUAL 0 OR NOT out MATCHES "at iteration [1-9]")
+  message(FATAL_ERROR "the checkpoint written on SIGTERM is not a training checkpoint past iteration 0 (${rc}): ${out}")
+endif()
 message(STATUS "train-base smoke run OK: ${n} iterations logged; compacted ${full_size} -> ${compact_size} bytes and resumed")

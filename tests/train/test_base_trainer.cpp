@@ -4,11 +4,13 @@
 #include "trainer_test_helpers.hpp"
 
 #include <maskadapt/train/base_trainer.hpp>
+#include <maskadapt/train/run_loop.hpp>
 #include <maskadapt/train/residual_trainer.hpp>
 
 #include <gtest/gtest.h>
 #include "../blas_kernel.hpp"
 
+#include <atomic>
 #include <cstring>
 #include <filesystem>
 #include <memory>
@@ -387,4 +389,27 @@ TEST(BaseTrainer, DiscriminatorUsesTheGradientPenaltyOnRealSamples) {
   with.trainer.save(a);
   without.trainer.save(b);
   EXPECT_NE(a.get_vector<float>("disc/params"), b.get_vector<float>("disc/params"));
+}
+
+// RunOptions::stop (set by the CLI on SIGINT / SIGTERM): the loop checks it before every
+// iteration, runs no further one, and writes its final checkpoint at the iteration reached.
+TEST(RunTraining, AStopRequestEndsTheRunWithACheckpointAtTheIterationReached) {
+  auto cfg = tiny_config();
+  cfg.run.iterations = 1000;
+  cfg.run.checkpoint_every = 1000;
+  cfg.run.out_dir = (std::filesystem::temp_directory_path() / ("maskadapt_stop_test_" + std::to_string(::getpid()))).string();
+  std::filesystem::remove_all(cfg.run.out_dir);
+  TinyRun run(cfg);
+  for (int i = 0; i < 3; ++i) run.trainer.iterate();
+  std::atomic<bool> stop{true};
+  run_training(run.trainer, RunOptions{false, nullptr, &stop});
+  EXPECT_EQ(run.trainer.iteration(), 3) << "no iteration after the request";
+  const Checkpoint c = load_checkpoint(cfg.run.out_dir + "/checkpoint.bin");
+  EXPECT_EQ(c.get_int("trainer/iteration"), 3);
+  stop = false;  // without a request the same loop runs to its budget
+  cfg.run.iterations = 5;
+  TinyRun again(cfg);
+  run_training(again.trainer, RunOptions{false, nullptr, &stop});
+  EXPECT_EQ(again.trainer.iteration(), 5);
+  std::filesystem::remove_all(cfg.run.out_dir);
 }

@@ -10,6 +10,7 @@
 #include <gtest/gtest.h>
 
 #include <string>
+#include <vector>
 
 using namespace maskadapt;
 using namespace maskadapt::train;
@@ -41,3 +42,39 @@ TEST(ShippedModels, AmpWalkBandaiLoadsWithItsDimsAndProvenance) {
   base.policy.ac.actor.mean(x, mu, ws, scratch);
   EXPECT_TRUE(mu.allFinite());
 }
+
+// The mask-invariant base (issue 14): the same checks, plus what makes it one — it was trained with
+// masking and the MI loss (target_ema), its actor hides masked parts at their mean, and its
+// provenance records the AMP phase and the masked continuation.
+TEST(ShippedModels, MaskMiWalkBandaiLoadsWithItsDimsAndProvenance) {
+  const std::string path = MASKADAPT_SOURCE_DIR "/models/mask_mi_walk_bandai.bin";
+  const Checkpoint c = load_checkpoint(path);
+  ASSERT_TRUE(is_policy_export(c));
+  check_policy_export(c, ModelDims{kObservationDim, policy_input_dim(kObservationDim), 63}, path);
+  EXPECT_EQ(c.get_int("trainer/iteration"), 6900);
+  EXPECT_EQ(c.get_int("trainer/samples"), 6900LL * 1024);
+  const ExportProvenance p = export_provenance(c);
+  EXPECT_NE(p.note.find("lambda_MI 0.3"), std::string::npos) << p.note;
+  const LoadedBasePolicy base =
+      load_base_policy(c, {kObservationDim, policy_input_dim(kObservationDim), 63, kObservationDim * kAmpWindowFrames}, path);
+  EXPECT_TRUE(base.config.mask.enabled);
+  EXPECT_EQ(base.config.mask.lambda_mi, 0.3);
+  EXPECT_EQ(base.config.mask.mi_gradient, "target_ema");
+  EXPECT_EQ(base.config.mask.mi_target_tau, 0.001);
+  EXPECT_EQ(base.config.mask.hidden_value, "mean");
+  EXPECT_EQ(base.policy.ac.actor.hidden_groups.size(), static_cast<std::size_t>(kObservationDim));
+  // with both legs masked the actor's input differs from the unmasked one, and its actions are finite
+  const PartMask legs = PartMask::parse("left_leg,right_leg");
+  const MatrixXf obs = base.policy.ac.actor.normalizer.mean().head(kObservationDim).cast<float>();
+  const PartElements parts(observation_parts(humanoid_skeleton()));
+  const std::vector<PartMask> none_mask{PartMask::none()}, legs_mask{legs};
+  const MatrixXf x_none = policy_input<float>(parts, obs, none_mask);
+  const MatrixXf x_legs = policy_input<float>(parts, obs, legs_mask);
+  MatrixXf mu_none(63, 1), mu_legs(63, 1), scratch;
+  nn::InferenceWorkspace<float> ws;
+  base.policy.ac.actor.mean(x_none, mu_none, ws, scratch);
+  base.policy.ac.actor.mean(x_legs, mu_legs, ws, scratch);
+  EXPECT_TRUE(mu_none.allFinite() && mu_legs.allFinite());
+  EXPECT_NE(x_none, x_legs);
+}
+

@@ -1,12 +1,13 @@
 #pragma once
 /// \file run_loop.hpp
 /// The outer loop of a training run: iteration/minute budget, JSONL log, progress line,
-/// periodic + final checkpoints in `run.out_dir`.
+/// periodic + final checkpoints in `run.out_dir`, and a clean stop on request (a signal).
 #include <maskadapt/core/checkpoint.hpp>
 #include <maskadapt/train/base_trainer.hpp>
 #include <maskadapt/train/config.hpp>
 #include <maskadapt/train/progress.hpp>
 
+#include <atomic>
 #include <filesystem>
 #include <iostream>
 #include <string>
@@ -16,7 +17,17 @@ namespace maskadapt::train {
 struct RunOptions {
   bool append_log = false;       ///< continue an existing log.jsonl (resume)
   std::ostream* progress = &std::cout;  ///< nullptr: silent
+  /// Checked before every iteration: once true, the run stops there and writes its final
+  /// checkpoint, as at the end of its budget (the CLI sets it from SIGINT / SIGTERM, so a run
+  /// that is interrupted loses no iteration; examples/maskadapt/stop_signals.hpp).
+  const std::atomic<bool>* stop = nullptr;
 };
+
+/// A process-wide stop flag for RunOptions::stop (the CLI's signal handler sets it).
+inline std::atomic<bool>& stop_requested() {
+  static std::atomic<bool> flag{false};
+  return flag;
+}
 
 /// Trains until `cfg.run.iterations` total iterations (counting those already done by a resumed
 /// trainer) or `cfg.run.minutes` of wall time, whichever comes first. Writes
@@ -41,6 +52,10 @@ IterationStats run_training(Trainer& trainer, const RunOptions& opt = {}) {
       trainer.save((out / ("checkpoint_" + std::to_string(trainer.iteration()) + ".bin")).string());
   };
   while (true) {
+    if (opt.stop && opt.stop->load()) {
+      if (opt.progress) *opt.progress << "stop requested: checkpoint at iteration " << trainer.iteration() << std::endl;
+      break;
+    }
     if (cfg.run.iterations > 0 && trainer.iteration() >= cfg.run.iterations) break;
     if (budget_s > 0 && clock.seconds() >= budget_s) break;
     st = trainer.iterate();
