@@ -106,15 +106,17 @@ else
   skipped=$((skipped + 1))
 fi
 
-# (e) the shipped walking base (README's first screen): 10 s of `play --deterministic` from seed 1.
+# (e) the shipped mask-invariant base with both legs masked (README's first screen): 10 s of
+# `play --deterministic` from seed 1.
 picture=shipped_walker.png
-model="$repo/models/amp_walk_bandai.bin"
+model="$repo/models/mask_mi_walk_bandai.bin"
 cli="${MASKADAPT_CLI:-$repo/build/bin/maskadapt}"
 if have "$model" "$cli"; then
   rollout="$(mktemp -d)/shipped_walker.json"
-  if (cd "$repo" && "$cli" play models/amp_walk_bandai.bin --deterministic --seconds 10 --seed 1 --rollout "$rollout" >/dev/null); then
+  if (cd "$repo" && "$cli" play models/mask_mi_walk_bandai.bin --mask left_leg,right_leg --deterministic --seconds 10 \
+        --seed 1 --rollout "$rollout" >/dev/null); then
     command_of "$rollout"
-    take "$picture" --rollout "$rollout" --label "models/amp_walk_bandai.bin, play --deterministic --seed 1, null mask" \
+    take "$picture" --rollout "$rollout" --label "models/mask_mi_walk_bandai.bin, both legs masked, play --deterministic --seed 1" \
       --time "${SHIPPED_T:-2}"
   else
     echo "screenshots: $picture: maskadapt play failed" >&2
