@@ -46,6 +46,7 @@
 #include <maskadapt/nn/kl.hpp>
 #include <maskadapt/nn/mlp.hpp>
 #include <maskadapt/rl/actor_critic.hpp>
+#include <maskadapt/rl/rollout_buffer.hpp>
 
 #include <string>
 #include <type_traits>
@@ -145,13 +146,6 @@ Index select_mi_columns(const Eigen::Ref<const MatrixX<T>>& masked_input, MiColu
   return static_cast<Index>(cols.size());
 }
 
-/// dst = src's columns `cols` (src.rows() × K).
-template <class T>
-void gather_mi_columns(const Eigen::Ref<const MatrixX<T>>& src, const std::vector<Index>& cols, MatrixX<T>& dst) {
-  dst.resize(src.rows(), static_cast<Index>(cols.size()));
-  for (std::size_t k = 0; k < cols.size(); ++k) dst.col(static_cast<Index>(k)) = src.col(cols[k]);
-}
-
 /// The MI term for a minibatch whose masked pass the caller has already run — the PPO surrogate's
 /// `forward_train` on [s̄ ; m] gave `mu_masked` (d × B) — so that the masked network pass is run
 /// once per minibatch, not twice. Only the full pass π(·|s, m⁰) is run here, and only on the K
@@ -181,8 +175,8 @@ MiLossResult mi_loss_on_masked_pass(rl::GaussianActor<T>& actor,
   const Index K = select_mi_columns<T>(masked_input, MiColumns::Masked, w.cols);
   MiLossResult r;
   if (K == 0) return r;
-  gather_mi_columns<T>(full_input, w.cols, w.full_k);
-  gather_mi_columns<T>(mu_masked, w.cols, w.mu_masked_k);
+  rl::gather_columns(full_input, w.cols, w.full_k);
+  rl::gather_columns(mu_masked, w.cols, w.mu_masked_k);
   const bool through_target = gradient == MiGradient::Both && lambda > 0;
   actor.normalize(w.full_k, w.norm_full);
   if (through_target) {
@@ -233,8 +227,8 @@ MiLossResult mi_loss_on_fixed_target(rl::GaussianActor<T>& actor,
   const Index K = select_mi_columns<T>(masked_input, columns, w.cols);
   MiLossResult r;
   if (K == 0) return r;
-  gather_mi_columns<T>(mu_target, w.cols, w.mu_full);
-  gather_mi_columns<T>(mu_masked, w.cols, w.mu_masked_k);
+  rl::gather_columns(mu_target, w.cols, w.mu_full);
+  rl::gather_columns(mu_masked, w.cols, w.mu_masked_k);
   const double share = static_cast<double>(K) / static_cast<double>(B);
   w.dmu_k.setZero(d, K);
   w.dlog_std.setZero(d, 1);
