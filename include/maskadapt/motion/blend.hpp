@@ -13,6 +13,7 @@
 #include <maskadapt/motion/clip.hpp>
 #include <maskadapt/motion/library.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <string>
 
@@ -60,6 +61,46 @@ inline MotionClip blend_parts(const MotionClip& a, const MotionClip& b, PartMask
       if (!mask.has(skel.parts[body])) continue;
       const int k = Skeleton::dof_offset(body);
       out.q.col(t).segment<3>(k) = frame >= 0 ? Vec3(bl.q.col(frame).segment<3>(k)) : Vec3(s.q.segment<3>(k));
+    }
+  }
+  return out;
+}
+
+/// One switch of the masked parts between A's own motion and B's, for training data in which
+/// the parts change behaviour on command (tracking/arm_data.hpp): w(τ) = 0 before `on_s`, ramps
+/// linearly to 1 over `fade_s`, stays 1 until `off_s`, then ramps back to 0 over `fade_s`
+/// (τ = t / fps_A, seconds from A's first frame; off_s = +∞ never switches back).
+struct PartSwitch {
+  double on_s = 0.0;        ///< B's motion starts fading in (s)
+  double off_s = INFINITY;  ///< B's motion starts fading out (s), ≥ on_s
+  double fade_s = 0.3;      ///< linear cross-fade length (s), ≥ 0
+  /// Weight of B at time τ (s), in [0, 1].
+  double weight(double tau) const {
+    auto ramp = [&](double x) { return fade_s <= 0 ? (x >= 0 ? 1.0 : 0.0) : std::clamp(x / fade_s, 0.0, 1.0); };
+    return std::min(ramp(tau - on_s), 1.0 - ramp(tau - off_s));
+  }
+};
+
+/// blend_parts(A, B, m, skel, opt) whose masked joints are cross-faded between A's and B's
+/// angles with the weight of `sw` (q = (1 − w)·q_A + w·q_B per hinge angle, rad); the other
+/// joints and the root are A's. With w ≡ 1 (on_s ≤ 0, fade 0, off_s = ∞) it equals blend_parts.
+/// Labels: A's labels; the caller labels the segments (the blend alone cannot say which frames
+/// show which behaviour).
+inline MotionClip blend_parts_switched(const MotionClip& a, const MotionClip& b, PartMask mask, const Skeleton& skel,
+                                       const PartSwitch& sw, const BlendOptions& opt = {}) {
+  require(std::isfinite(sw.on_s) && !std::isnan(sw.off_s) && sw.off_s >= sw.on_s && std::isfinite(sw.fade_s) &&
+              sw.fade_s >= 0,
+          "part switch needs finite on_s ≤ off_s and fade_s ≥ 0", {{}, {}, "PartSwitch"});
+  MotionClip out = blend_parts(a, b, mask, skel, opt);
+  out.labels = a.labels;
+  out.description = "part-wise switch: " + mask.to_string() + " from '" + b.name + "' between " +
+                    std::to_string(sw.on_s) + " s and " + std::to_string(sw.off_s) + " s, the rest from '" + a.name + "'";
+  for (int t = 0; t < a.num_frames(); ++t) {
+    const double w = sw.weight(t / a.fps);
+    for (int body = 1; body < skel.num_bodies(); ++body) {
+      if (!mask.has(skel.parts[body])) continue;
+      const int k = Skeleton::dof_offset(body);
+      out.q.col(t).segment<3>(k) = (1.0 - w) * a.q.col(t).segment<3>(k) + w * out.q.col(t).segment<3>(k);
     }
   }
   return out;

@@ -11,7 +11,10 @@
 ///
 /// Save/load (core/checkpoint.hpp): section "generator.config" (JSON: sizes, activations,
 /// T, w, skeleton body names), the four networks' parameters ("vae.encoder", "vae.decoder",
-/// "denoiser.projection", "denoiser.net"), the normalisation statistics and "latent_scale".
+/// "denoiser.projection", "denoiser.net"), the normalisation statistics and "latent_scale"; and,
+/// optional (absent in older files): "generator.arms_pool" (JSON list of the arms prompts it was
+/// trained on: what partial tracking samples) and "generator.provenance" (JSON: command, data,
+/// seed, budget, git commit, machine — see models/README.md).
 ///
 /// Training (`train_generator`): stage 1 fits the VAE on all windows; stage 2 freezes it, encodes
 /// every window once to (μ, σ), and trains the denoiser on z = μ + σ ε / latent_scale with a
@@ -127,6 +130,8 @@ class BuiltinGenerator {
     ck.put("vae.future_mean", vae_.future_stats.mean);
     ck.put("vae.future_std", vae_.future_stats.std);
     ck.put_double("latent_scale", latent_scale_);
+    if (!arms_pool_.empty()) ck.put_string("generator.arms_pool", nlohmann::json(arms_pool_).dump());
+    if (!provenance_.empty()) ck.put_string("generator.provenance", provenance_.dump());
     save_checkpoint(path, ck);
   }
 
@@ -190,6 +195,15 @@ class BuiltinGenerator {
     g.vae_.history_stats = std::move(hs);
     g.vae_.future_stats = std::move(fs);
     g.latent_scale_ = static_cast<float>(scale);
+    try {
+      if (ck.contains("generator.arms_pool"))
+        g.arms_pool_ = nlohmann::json::parse(ck.get_string("generator.arms_pool")).get<std::vector<std::string>>();
+      if (ck.contains("generator.provenance")) g.provenance_ = nlohmann::json::parse(ck.get_string("generator.provenance"));
+    } catch (const std::exception& e) {
+      throw Error(std::string("malformed optional section: ") + e.what(), {file, {}, "generator.arms_pool/provenance"});
+    }
+    require(g.provenance_.is_null() || g.provenance_.is_object(), "provenance must be a JSON object",
+            {file, {}, "generator.provenance"});
     return g;
   }
 
@@ -220,6 +234,15 @@ class BuiltinGenerator {
   const LatentDenoiser& denoiser() const { return denoiser_; }
   const NoiseSchedule& schedule() const { return schedule_; }
   const HashedTextFeatures& text_encoder() const { return text_; }
+  /// The arms prompts the generator was trained on (empty for older checkpoints).
+  const std::vector<std::string>& arms_pool() const { return arms_pool_; }
+  void set_arms_pool(std::vector<std::string> p) { arms_pool_ = std::move(p); }
+  /// How it was trained (JSON object; null for older checkpoints).
+  const nlohmann::json& provenance() const { return provenance_; }
+  void set_provenance(nlohmann::json p) {
+    require(p.is_object(), "provenance must be a JSON object", {{}, {}, "provenance"});
+    provenance_ = std::move(p);
+  }
   /// Latents are divided by this before diffusion (std of the training latents).
   float latent_scale() const { return latent_scale_; }
   void set_latent_scale(float s) {
@@ -235,6 +258,8 @@ class BuiltinGenerator {
   LatentDenoiser denoiser_;
   NoiseSchedule schedule_;
   float latent_scale_ = 1.0f;
+  std::vector<std::string> arms_pool_;
+  nlohmann::json provenance_;
 };
 
 static_assert(TrajectoryGenerator<BuiltinGenerator>);
@@ -310,10 +335,12 @@ inline GeneratorTrainReport train_generator(BuiltinGenerator& g, const Primitive
     const double var = (mu.array().square().mean() + sigma.array().square().mean());
     g.set_latent_scale(static_cast<float>(std::sqrt(std::max(var, 1e-8))));
     const float inv_scale = 1.0f / g.latent_scale();
-    // Text features of every description, per clip.
-    std::vector<std::vector<VectorXf>> clip_feats(data.clip_texts.size());
-    for (std::size_t c = 0; c < data.clip_texts.size(); ++c)
-      for (const auto& t : data.clip_texts[c]) clip_feats[c].push_back(g.text_encoder().features(t));
+    // Text features of every description, per label set (a clip's texts or a segment's).
+    require(data.label.size() == static_cast<std::size_t>(data.size()), "dataset has no per-window labels",
+            {{}, {}, "dataset.label"});
+    std::vector<std::vector<VectorXf>> label_feats(data.label_texts.size());
+    for (std::size_t c = 0; c < data.label_texts.size(); ++c)
+      for (const auto& t : data.label_texts[c]) label_feats[c].push_back(g.text_encoder().features(t));
     nn::Adam<float> adam(ac);
     const auto t0 = clock::now();
     double acc = 0.0;
@@ -327,7 +354,7 @@ inline GeneratorTrainReport train_generator(BuiltinGenerator& g, const Primitive
       for (Index j = 0; j < cfg.batch; ++j) {
         const Index n = idx[static_cast<std::size_t>(j)];
         for (Index i = 0; i < L; ++i) x0(i, j) = (mu(i, n) + sigma(i, n) * static_cast<float>(rng.normal())) * inv_scale;
-        const auto& feats = clip_feats[static_cast<std::size_t>(data.clip[static_cast<std::size_t>(n)])];
+        const auto& feats = label_feats[static_cast<std::size_t>(data.label[static_cast<std::size_t>(n)])];
         if (!feats.empty()) tf.col(j) = feats[rng.uniform_int(feats.size())];
       }
       acc += g.denoiser().train_step(g.schedule(), x0, tf, gather_columns(hn_all, idx), adam, rng);

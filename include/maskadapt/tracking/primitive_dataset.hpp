@@ -16,11 +16,22 @@
 
 namespace maskadapt::tracking {
 
+/// From frame `start_frame` on (until the next segment), `texts` describe the motion.
+struct TextSegment {
+  Index start_frame = 0;
+  std::vector<std::string> texts;
+};
+
 /// A world-frame clip at 30 Hz with its text descriptions (any one of them describes it).
+/// `segments` (optional, start frames increasing, the first at 0) label parts of the clip
+/// differently, e.g. a walk whose arms start waving at frame 60 (tracking/arm_data.hpp); a
+/// window then takes the texts of the segment holding its first *future* frame, so windows whose
+/// history shows the old behaviour and whose future the new one teach the transition.
 struct LabelledTrajectory {
   std::string name;
   std::vector<std::string> texts;
   Trajectory motion;  ///< body_pos may be empty: it is recomputed by FK
+  std::vector<TextSegment> segments;
 };
 
 struct PrimitiveDataset {
@@ -30,6 +41,8 @@ struct PrimitiveDataset {
   std::vector<int> clip;  ///< (N) index of the source clip of each window
   std::vector<std::vector<std::string>> clip_texts;  ///< (num clips) texts of each clip
   std::vector<std::string> clip_names;               ///< (num clips)
+  std::vector<int> label;                            ///< (N) index into label_texts: the window's texts
+  std::vector<std::vector<std::string>> label_texts; ///< (num label sets) clip texts, or a segment's texts
 
   Index size() const { return history.cols(); }
 };
@@ -49,6 +62,18 @@ inline PrimitiveDataset make_primitive_dataset(const Skeleton& skel, const std::
     const auto& clip = clips[c];
     d.clip_texts.push_back(clip.texts);
     d.clip_names.push_back(clip.name);
+    // label sets of this clip: its texts, or one per segment
+    const int first_label = static_cast<int>(d.label_texts.size());
+    if (clip.segments.empty()) {
+      d.label_texts.push_back(clip.texts);
+    } else {
+      for (std::size_t k = 0; k < clip.segments.size(); ++k) {
+        const auto& sg = clip.segments[k];
+        require(k == 0 ? sg.start_frame == 0 : sg.start_frame > clip.segments[k - 1].start_frame,
+                "clip '" + clip.name + "': segments must start at frame 0 and increase", {{}, {}, "segments"});
+        d.label_texts.push_back(sg.texts);
+      }
+    }
     if (clip.motion.num_frames() < W) continue;
     require(clip.motion.q.rows() == skel.num_dofs(), "clip '" + clip.name + "' does not match the skeleton", {{}, {}, "q"});
     Trajectory world = clip.motion;
@@ -57,6 +82,10 @@ inline PrimitiveDataset make_primitive_dataset(const Skeleton& skel, const std::
       const auto [local, frame] = canonicalize(world.slice(s, W), 0);
       windows.push_back(encode_frames<float>(skel, local));
       d.clip.push_back(static_cast<int>(c));
+      int seg = 0;
+      for (std::size_t k = 0; k < clip.segments.size(); ++k)
+        if (clip.segments[k].start_frame <= s + H) seg = static_cast<int>(k);
+      d.label.push_back(first_label + seg);
     }
   }
   require(!windows.empty(), "no clip is long enough for one window of " + std::to_string(W) + " frames",

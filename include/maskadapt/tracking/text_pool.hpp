@@ -7,7 +7,7 @@
 /// "wash self"). `load_labelled_clips(dir)` imports every .bvh / .npz under a directory with the
 /// motion importer (CMU clips are named like that, so their descriptions become the labels).
 /// `arms_text_pool` keeps the distinct labels that mention the arms (arm, hand, wave, punch,
-/// raise, lift, wash, rotate, swing, clap, reach, throw, sword, box, …), which is what partial
+/// raise, lift, wash, rotate, swing, clap, reach, throw, sword, box, wipe, swim, jack, …), which is what partial
 /// tracking samples its prompts from.
 #include <maskadapt/core/error.hpp>
 #include <maskadapt/core/rng.hpp>
@@ -86,7 +86,8 @@ inline std::vector<LabelledTrajectory> load_labelled_clips(const std::string& di
 inline const std::vector<std::string>& arms_keywords() {
   static const std::vector<std::string> k = {"arm",  "arms",  "hand",  "hands", "wave",  "waving", "punch", "punching",
                                              "box",  "boxing", "raise", "lift", "wash",  "rotate", "swing", "clap",
-                                             "reach", "throw", "sword", "swordplay", "expressive", "high"};
+                                             "reach", "throw", "sword", "swordplay", "expressive", "high",
+                                             "wipe", "swim", "swimming", "jack", "jacks", "punches"};
   return k;
 }
 
