@@ -1,5 +1,6 @@
-// `maskadapt train-generator` and `maskadapt generate`: the built-in text-conditioned motion
-// generator (tracking/builtin_generator.hpp).
+// `maskadapt train-generator`, `maskadapt generate` and `maskadapt eval-generator`: the built-in
+// text-conditioned motion generator (tracking/builtin_generator.hpp; data: tracking/arm_data.hpp;
+// probe: tracking/arm_eval.hpp).
 #include "cli_checks.hpp"
 #include "command_registry.hpp"
 
@@ -7,11 +8,16 @@
 #include <maskadapt/motion/bvh.hpp>
 #include <maskadapt/motion/retarget.hpp>
 #include <maskadapt/motion/synthetic.hpp>
+#include <maskadapt/tracking/arm_data.hpp>
+#include <maskadapt/tracking/arm_eval.hpp>
 #include <maskadapt/tracking/builtin_generator.hpp>
 #include <maskadapt/tracking/text_pool.hpp>
 
+#include <algorithm>
 #include <cstdlib>
 #include <filesystem>
+#include <fstream>
+#include <iomanip>
 #include <iostream>
 #include <limits>
 #include <memory>
@@ -21,14 +27,32 @@ namespace {
 using namespace maskadapt;
 using namespace maskadapt::tracking;
 
-std::string default_data_dir() {
-  if (const char* e = std::getenv("MASKADAPT_DATA_DIR")) return std::string(e) + "/motions/cmu";
-  return std::string(MASKADAPT_SOURCE_DIR) + "/../shared/data/motions/cmu";
+/// The data directory (the folder holding motions/): --data, else $MASKADAPT_DATA_DIR, else the
+/// checkout's ../shared/data.
+std::string data_root(const std::string& flag) {
+  if (!flag.empty()) return flag;
+  if (const char* e = std::getenv("MASKADAPT_DATA_DIR"); e && *e) return e;
+  return std::string(MASKADAPT_SOURCE_DIR) + "/../shared/data";
+}
+
+/// The shipped generator (models/README.md "text_generator.bin").
+std::string shipped_generator() { return std::string(MASKADAPT_SOURCE_DIR) + "/models/text_generator.bin"; }
+
+std::string machine_line() {
+  std::ifstream f("/proc/cpuinfo");
+  std::string line;
+  int cores = 0;
+  std::string model = "unknown CPU";
+  while (std::getline(f, line)) {
+    if (line.rfind("model name", 0) == 0 && model == "unknown CPU") model = line.substr(line.find(':') + 2);
+    if (line.rfind("processor", 0) == 0) ++cores;
+  }
+  return model + ", " + std::to_string(cores) + " logical cores";
 }
 
 struct TrainOptions {
-  std::string data, out;
-  double minutes = 0.0;
+  std::string data, out, mix = "arms";
+  double minutes = 0.0, arm_seconds = 60.0;
   long long iterations = 2000;
   long long batch = 64;
   unsigned long long seed = 1;
@@ -36,27 +60,45 @@ struct TrainOptions {
 };
 
 struct GenerateOptions {
-  std::string checkpoint, text = "raise arms", bvh;
+  std::string checkpoint, text = "raise arms", bvh, from = "walk";
   double seconds = 5.0, guidance = -1.0;  ///< guidance < 0: not given (the checkpoint's)
+  unsigned long long seed = 1;
+};
+
+struct EvalOptions {
+  std::string checkpoint, data, out;
+  std::vector<std::string> prompts, paraphrases;
+  long long samples = 10;
   unsigned long long seed = 1;
 };
 
 void run_train(const TrainOptions& o) {
   const Skeleton& skel = humanoid_skeleton();
-  const std::string dir = o.data.empty() ? default_data_dir() : o.data;
-  std::vector<std::string> skipped;
-  // Real clips from the data directory when it exists, plus the built-in synthetic clips (walk,
-  // rotate arms, kick, jump) with their labels, so a fresh machine can train too.
-  std::vector<LabelledTrajectory> clips;
-  if (std::filesystem::is_directory(dir)) clips = load_labelled_clips(dir, skel, &skipped);
-  else std::cerr << "no clip directory at " << dir << "; training on the built-in synthetic clips only\n";
-  for (const auto& s : skipped) std::cerr << "skipped " << s << "\n";
-  for (const MotionClip& c : builtin_motion_set("synthetic")) clips.push_back(labelled_from_clip(c, skel));
-  require(!clips.empty(), "no motion clips found", {dir, {}, "--data"});
-  const auto data = make_primitive_dataset(skel, clips, 5, 15, o.stride);
-  std::cout << "clips: " << clips.size() << ", windows: " << data.size() << " (H = 5, F = 15, stride " << o.stride
-            << ")\narms text pool:";
-  for (const auto& t : arms_text_pool(clips)) std::cout << " '" << t << "'";
+  const std::string root = data_root(o.data);
+  Rng data_rng(o.seed + 1000);
+  GeneratorCorpus corpus;
+  if (o.mix == "legacy") {  // the data of the first version: CMU clips + synthetic clips, one label set per clip
+    const std::string dir = root + "/motions/cmu";
+    if (std::filesystem::is_directory(dir)) corpus.clips = load_labelled_clips(dir, skel, &corpus.skipped);
+    corpus.num_real = static_cast<Index>(corpus.clips.size());
+    for (const MotionClip& c : builtin_motion_set("synthetic", root)) corpus.clips.push_back(labelled_from_clip(c, skel));
+    corpus.num_synthetic = 4;
+  } else {
+    ArmSwitchOptions ao;
+    ao.active_seconds_per_class = o.arm_seconds;
+    corpus = load_generator_corpus(root, skel, data_rng, ao);
+    if (corpus.arms.classes.size() <= 1)
+      std::cerr << "no arm clips under " << root << "/motions (set --data or MASKADAPT_DATA_DIR): the arms pool is "
+                << "the synthetic arm circles only\n";
+  }
+  for (const auto& s : corpus.skipped) std::cerr << "skipped " << s << "\n";
+  const auto data = make_primitive_dataset(skel, corpus.clips, 5, 15, o.stride);
+  const std::vector<std::string> pool = o.mix == "legacy" ? arms_text_pool(corpus.clips) : corpus.arms.prompts();
+  std::cout << "data " << root << " (mix " << o.mix << "): clips: " << corpus.clips.size() << " (" << corpus.num_real
+            << " real, " << corpus.num_synthetic << " synthetic, " << corpus.num_switch << " arm-switch blends onto "
+            << corpus.walks.size() << " walks), windows: " << data.size() << " (H = 5, F = 15, stride " << o.stride
+            << ")\narms text pool (" << pool.size() << "):";
+  for (const auto& t : pool) std::cout << " '" << t << "'";
   std::cout << "\n";
   Rng rng(o.seed);
   BuiltinGenerator g(skel, BuiltinGeneratorConfig{}, rng);
@@ -72,31 +114,72 @@ void run_train(const TrainOptions& o) {
   tc.batch = o.batch;
   tc.log_every = std::max<Index>(1, std::min<Index>(200, tc.vae_iterations / 5));
   const auto rep = train_generator(g, data, tc, rng, [](const std::string& s) { std::cout << s << std::endl; });
+  g.set_arms_pool(pool);
+  g.set_provenance({{"command", cli::invocation()},
+                    {"git_commit", cli::build_commit()},
+                    {"trained", cli::provenance_line()},
+                    {"machine", machine_line()},
+                    {"seed", o.seed},
+                    {"data_mix", o.mix},
+                    {"data_dir", root},
+                    {"clips", corpus.clips.size()},
+                    {"windows", data.size()},
+                    {"vae_iterations", rep.vae_iterations},
+                    {"vae_seconds", rep.vae_seconds},
+                    {"vae_recon", rep.vae_final.recon},
+                    {"diffusion_iterations", rep.diffusion_iterations},
+                    {"diffusion_seconds", rep.diffusion_seconds},
+                    {"diffusion_x0_loss", rep.diffusion_final}});
   g.save(o.out);
   std::cout << "trained: vae " << rep.vae_iterations << " it in " << rep.vae_seconds << " s (recon " << rep.vae_final.recon
             << ", kl " << rep.vae_final.kl << "), diffusion " << rep.diffusion_iterations << " it in "
             << rep.diffusion_seconds << " s (x0 loss " << rep.diffusion_final << ")\nwrote " << o.out << "\n";
 }
 
+/// `--from CLIP[:SECONDS]`: H frames of a clip ending at SECONDS (default 1 s; clamped to the
+/// clip). CLIP is a .bvh/.npz file or a built-in clip name (walk, arms, kick, jump).
+Trajectory history_from(const std::string& spec, const Skeleton& skel, Index H) {
+  std::string name = spec;
+  double at = 1.0;
+  if (const auto c = spec.rfind(':'); c != std::string::npos && c + 1 < spec.size()) {
+    const std::string num = spec.substr(c + 1);
+    char* end = nullptr;
+    const double v = std::strtod(num.c_str(), &end);
+    if (end && *end == '\0') {
+      require(std::isfinite(v) && v >= 0, "the time after ':' must be seconds ≥ 0", {{}, {}, "--from"});
+      at = v;
+      name = spec.substr(0, c);
+    }
+  }
+  MotionClip clip;
+  if (std::filesystem::exists(name)) {
+    clip = import_motion(name);
+  } else {
+    try {
+      clip = synthetic_clip(name);
+    } catch (const Error&) {
+      throw Error("'" + name + "' is neither a motion file nor a built-in clip (walk, arms, kick, jump)", {{}, {}, "--from"});
+    }
+  }
+  const LabelledTrajectory l = labelled_from_clip(clip, skel);
+  require(l.motion.num_frames() >= H, "clip '" + name + "' has fewer than " + std::to_string(H) + " frames", {{}, {}, "--from"});
+  const Index last = std::clamp<Index>(static_cast<Index>(std::lround(at * 30.0)), H - 1, l.motion.num_frames() - 1);
+  return l.motion.slice(last - H + 1, H);
+}
+
 void run_generate(const GenerateOptions& o) {
   const Skeleton& skel = humanoid_skeleton();
-  BuiltinGenerator g = BuiltinGenerator::load(o.checkpoint, skel);
+  const std::string path = o.checkpoint.empty() ? shipped_generator() : o.checkpoint;
+  BuiltinGenerator g = BuiltinGenerator::load(path, skel);
   if (o.guidance >= 0) g.config().guidance = o.guidance;
   require(o.seconds > 0 && o.seconds <= 600, "must be a number in (0, 600]", {{}, {}, "--seconds"});  // checked when parsed, too
   const auto schedule = parse_text_schedule(o.text);
-  // History: the standing pose held for H frames.
-  Trajectory hist = Trajectory::zeros(skel, g.history_frames());
-  const KinematicState stand = humanoid_standing_pose();
-  for (Index i = 0; i < hist.num_frames(); ++i) {
-    hist.root_pos.col(i) = stand.root_pos;
-    hist.root_rot[static_cast<std::size_t>(i)] = stand.root_rot;
-    hist.q.col(i) = stand.q;
-  }
-  compute_body_positions(skel, hist);
+  const Trajectory hist = history_from(o.from, skel, g.history_frames());
   Rng rng(o.seed);
   const Index n = static_cast<Index>(std::lround(o.seconds * 30.0));
   const Trajectory t = rollout(g, schedule, hist, n, rng);
-  std::cout << "generated " << t.num_frames() << " frames (" << o.seconds << " s at 30 Hz) for '" << o.text << "'\n";
+  std::cout << "generated " << t.num_frames() << " frames (" << o.seconds << " s at 30 Hz) for '" << o.text << "' from "
+            << o.from << " with " << path << "\n";
   if (!o.bvh.empty()) {
     MotionClip c;
     c.name = "generated";
@@ -111,10 +194,103 @@ void run_generate(const GenerateOptions& o) {
   }
 }
 
+void print_report(const ArmFollowingReport& r, const std::string& title) {
+  std::cout << title << "\n| prompt | accuracy | diversity (m) | predicted (count) |\n| --- | --- | --- | --- |\n";
+  for (std::size_t p = 0; p < r.classes.size(); ++p) {
+    std::cout << "| " << r.classes[p] << " | " << std::fixed << std::setprecision(2) << r.accuracy[p] << " | "
+              << std::setprecision(3) << r.diversity[p] << " | ";
+    bool first = true;
+    for (Index c = 0; c < r.confusion.cols(); ++c)
+      if (r.confusion(static_cast<Index>(p), c) > 0) {
+        std::cout << (first ? "" : ", ") << r.classes[static_cast<std::size_t>(c)] << " " << r.confusion(static_cast<Index>(p), c);
+        first = false;
+      }
+    std::cout << " |\n";
+  }
+  std::cout << "overall accuracy " << std::setprecision(3) << r.overall_accuracy() << "\nconfusion (rows: prompt, columns: predicted, same order):\n";
+  for (Index p = 0; p < r.confusion.rows(); ++p) {
+    for (Index c = 0; c < r.confusion.cols(); ++c) std::cout << std::setw(4) << r.confusion(p, c);
+    std::cout << "   " << r.classes[static_cast<std::size_t>(p)] << "\n";
+  }
+  std::cout.unsetf(std::ios::floatfield);
+}
+
+void run_eval(const EvalOptions& o) {
+  const Skeleton& skel = humanoid_skeleton();
+  const std::string path = o.checkpoint.empty() ? shipped_generator() : o.checkpoint;
+  BuiltinGenerator g = BuiltinGenerator::load(path, skel);
+  const std::string root = data_root(o.data);
+  Rng data_rng(12345);
+  const GeneratorEvalSet ev = make_generator_eval_set(root, skel, data_rng);
+  std::vector<std::string> prompts = o.prompts.empty() ? ev.prompts : o.prompts;
+  for (const auto& p : prompts)
+    require(std::find(ev.prompts.begin(), ev.prompts.end(), p) != ev.prompts.end(),
+            "'" + p + "' is not a class of the arm catalog found under " + root, {{}, {}, "--prompts"});
+  require(prompts == ev.prompts, "--prompts must list every catalog class in catalog order (the classifier's classes)",
+          {{}, {}, "--prompts"});
+  std::cout << "generator " << path << "; classifier: nearest class mean of 48 arm-feature statistics, " << ev.train.labels.size()
+            << " labelled 2-s windows of walks with switched arms (seed 12345); " << ev.histories.size()
+            << " walking histories\n";
+  const ArmFollowingReport real_blend = evaluate_samples(ev.train, ev.prompts, ev.classifier);
+  const ArmFollowingReport real_raw = evaluate_samples(ev.raw, ev.prompts, ev.classifier);
+  PromptEvalOptions po;
+  po.samples = o.samples;
+  po.seed = o.seed;
+  const ArmFollowingReport gen = evaluate_prompts(g, ev.prompts, ev.histories, ev.classifier, po);
+  print_report(gen, "## generated: " + std::to_string(o.samples) + " samples per prompt, from walking histories, frames 1-3 s after the prompt");
+  // Switches: "0:walk,2:<prompt>", the 2-s window starting 0, 0.5 and 1 s after the switch.
+  nlohmann::json sj = nlohmann::json::array();
+  std::cout << "## switches \"0:walk,2:<prompt>\": accuracy of the 2-s window starting d s after the switch\n| d (s) | overall | per prompt |\n| --- | --- | --- |\n";
+  for (const double d : {0.0, 0.5, 1.0}) {
+    PromptEvalOptions so = po;
+    so.before = "walk";
+    so.before_s = 2.0;
+    so.lead_s = d;
+    const ArmFollowingReport r = evaluate_prompts(g, ev.prompts, ev.histories, ev.classifier, so);
+    std::cout << "| " << d << " | " << std::setprecision(3) << r.overall_accuracy() << " |";
+    for (std::size_t p = 0; p < r.classes.size(); ++p) std::cout << " " << std::setprecision(2) << r.accuracy[p];
+    std::cout << " |\n";
+    sj.push_back({{"delay_s", d}, {"report", r.to_json()}});
+  }
+  print_report(real_blend, "## real: walks with the labelled arm motion blended on (the classifier's training windows)");
+  print_report(real_raw, "## real: the labelled arm clips as recorded (standing; not used to fit the classifier)");
+  // Paraphrases: nearest prompt by cosine of the learned text embedding, and the classifier's
+  // majority on generated motion.
+  const std::vector<std::string> paras = o.paraphrases.empty() ? default_paraphrases() : o.paraphrases;
+  std::cout << "## paraphrases\n| paraphrase | nearest prompt (embedding cosine) | generated motion classified as (of " << o.samples << ") |\n| --- | --- | --- |\n";
+  nlohmann::json pj = nlohmann::json::array();
+  for (const auto& para : paras) {
+    const auto [best, cosine] = nearest_prompt(g, para, ev.prompts);
+    std::vector<int> votes(ev.prompts.size(), 0);
+    for (Index i = 0; i < o.samples; ++i) {
+      Rng rng(o.seed + static_cast<std::uint64_t>(i));
+      Trajectory t = rollout(g, parse_text_schedule(para), ev.histories[static_cast<std::size_t>(i) % ev.histories.size()], 90, rng);
+      compute_body_positions(skel, t);
+      ++votes[static_cast<std::size_t>(ev.classifier.predict(arm_summary(arm_features(skel, t, 30, 60))))];
+    }
+    const auto top = std::max_element(votes.begin(), votes.end()) - votes.begin();
+    std::cout << "| " << para << " | " << ev.prompts[best] << " (" << std::setprecision(3) << cosine << ") | "
+              << ev.prompts[static_cast<std::size_t>(top)] << " (" << votes[static_cast<std::size_t>(top)] << ") |\n";
+    pj.push_back({{"paraphrase", para}, {"nearest_prompt", ev.prompts[best]}, {"cosine", cosine},
+                  {"motion_majority", ev.prompts[static_cast<std::size_t>(top)]}, {"votes", votes}});
+  }
+  if (!o.out.empty()) {
+    nlohmann::json j = {{"generator", path}, {"samples", o.samples}, {"seed", o.seed}, {"generated", gen.to_json()},
+                        {"switches", sj}, {"real_blended", real_blend.to_json()}, {"real_raw", real_raw.to_json()}, {"paraphrases", pj},
+                        {"provenance", g.provenance()}};
+    std::ofstream(o.out) << j.dump(2) << "\n";
+    std::cout << "wrote " << o.out << "\n";
+  }
+}
+
 const bool registered = maskadapt::cli::register_command([](CLI::App& app) {
   auto topt = std::make_shared<TrainOptions>();
   auto* train = app.add_subcommand("train-generator", "train the built-in text-conditioned motion generator (VAE + latent diffusion)");
-  train->add_option("--data", topt->data, "directory of labelled .bvh/.npz clips (default: $MASKADAPT_DATA_DIR/motions/cmu)");
+  train->add_option("--data", topt->data, "data directory holding motions/ (default: $MASKADAPT_DATA_DIR, else ../shared/data)");
+  train->add_option("--data-mix", topt->mix, "arms: CMU + arm catalog + Bandai walks + arm-switch blends (default); legacy: CMU + synthetic clips only (the first version, for comparison)")
+      ->check(maskadapt::cli::one_of({"arms", "legacy"}));
+  train->add_option("--arm-seconds", topt->arm_seconds, "seconds of switched arm motion per arm class in the blends (default 60)")
+      ->check(maskadapt::cli::non_negative_real());
   using namespace maskadapt::cli;
   auto* minutes = train->add_option("--minutes", topt->minutes, "wall-clock budget, split between the VAE and the diffusion stage")
                       ->check(positive_real());
@@ -130,7 +306,8 @@ const bool registered = maskadapt::cli::register_command([](CLI::App& app) {
 
   auto gopt = std::make_shared<GenerateOptions>();
   auto* gen = app.add_subcommand("generate", "generate motion from text with a trained generator");
-  gen->add_option("--checkpoint", gopt->checkpoint, "generator checkpoint (from train-generator)")->required();
+  gen->add_option("--checkpoint", gopt->checkpoint, "generator checkpoint (default: the shipped models/text_generator.bin)");
+  gen->add_option("--from", gopt->from, "history: CLIP[:SECONDS], a .bvh/.npz file or a built-in clip (walk, arms, kick, jump); H frames ending at SECONDS (default walk:1)");
   gen->add_option("--text", gopt->text, "prompt, or a schedule \"0:wave hands,5:raise arms\"")
       ->check(parsed_by([](const std::string& t) { (void)parse_text_schedule(t); }, "TEXT"));
   gen->add_option("--seconds", gopt->seconds, "length (s)")->check(real_in(0, 600, true, false));
@@ -139,6 +316,16 @@ const bool registered = maskadapt::cli::register_command([](CLI::App& app) {
   gen->add_option("--seed", gopt->seed, "random seed")->transform(non_negative_integer());
   gen->add_option("--bvh", gopt->bvh, "write the motion as BVH");
   gen->callback([gopt] { run_generate(*gopt); });
+
+  auto eopt = std::make_shared<EvalOptions>();
+  auto* ev = app.add_subcommand("eval-generator", "does the generator follow its arms prompts? classifier accuracy, confusion, diversity, paraphrases (needs the shared data)");
+  ev->add_option("--checkpoint", eopt->checkpoint, "generator checkpoint (default: the shipped models/text_generator.bin)");
+  ev->add_option("--data", eopt->data, "data directory holding motions/ (default: $MASKADAPT_DATA_DIR, else ../shared/data)");
+  ev->add_option("--samples", eopt->samples, "samples per prompt (default 10)")->transform(integer_in(2, 10000));
+  ev->add_option("--seed", eopt->seed, "sample i uses seed + i")->transform(non_negative_integer());
+  ev->add_option("--paraphrases", eopt->paraphrases, "prompts to map onto the pool (default: a built-in list)");
+  ev->add_option("--out", eopt->out, "write the figures as JSON");
+  ev->callback([eopt] { run_eval(*eopt); });
 });
 
 }  // namespace

@@ -218,7 +218,10 @@ void run_train_residual(const Args& a) {
   if (c.task == "tracking") {
     require(!c.generator.empty(), "tracking needs --generator (train one with `maskadapt train-generator`)", {{}, {}, "--generator"});
     auto gen = std::make_shared<tracking::BuiltinGenerator>(tracking::BuiltinGenerator::load(c.generator, sim.skeleton()));
-    std::vector<std::string> texts = a.texts.empty() ? default_text_pool(sim.skeleton()) : a.texts;
+    // prompts: --texts, else the arms pool stored in the generator (issue 19), else from the clips
+    std::vector<std::string> texts = !a.texts.empty()           ? a.texts
+                                     : !gen->arms_pool().empty() ? gen->arms_pool()
+                                                                 : default_text_pool(sim.skeleton());
     std::cout << "train-residual: text pool (" << texts.size() << "):";
     for (const auto& t : texts) std::cout << " '" << t << "'";
     std::cout << "\n";
