@@ -52,7 +52,7 @@ std::string machine_line() {
 
 struct TrainOptions {
   std::string data, out, mix = "arms";
-  double minutes = 0.0, arm_seconds = 60.0;
+  double minutes = 0.0, arm_seconds = 120.0, guidance = -1.0, temperature = -1.0;  ///< < 0: the defaults (5, 1)
   long long iterations = 2000;
   long long batch = 64;
   unsigned long long seed = 1;
@@ -61,15 +61,16 @@ struct TrainOptions {
 
 struct GenerateOptions {
   std::string checkpoint, text = "raise arms", bvh, from = "walk";
-  double seconds = 5.0, guidance = -1.0;  ///< guidance < 0: not given (the checkpoint's)
+  double seconds = 5.0, guidance = -1.0, temperature = -1.0;  ///< < 0: not given (the checkpoint's)
   unsigned long long seed = 1;
 };
 
 struct EvalOptions {
-  std::string checkpoint, data, out;
+  std::string checkpoint, data, out, save;
   std::vector<std::string> prompts, paraphrases;
   long long samples = 10;
   unsigned long long seed = 1;
+  double guidance = -1.0, temperature = -1.0;  ///< < 0: the checkpoint's
 };
 
 void run_train(const TrainOptions& o) {
@@ -101,7 +102,10 @@ void run_train(const TrainOptions& o) {
   for (const auto& t : pool) std::cout << " '" << t << "'";
   std::cout << "\n";
   Rng rng(o.seed);
-  BuiltinGenerator g(skel, BuiltinGeneratorConfig{}, rng);
+  BuiltinGeneratorConfig gc;
+  if (o.guidance >= 0) gc.guidance = o.guidance;
+  if (o.temperature > 0) gc.temperature = o.temperature;
+  BuiltinGenerator g(skel, gc, rng);
   std::cout << "parameters: vae encoder " << g.vae().encoder().num_params() << ", decoder "
             << g.vae().decoder().num_params() << ", denoiser " << g.denoiser().network().num_params()
             << ", text projection " << g.denoiser().projection().num_params() << "\n";
@@ -172,6 +176,7 @@ void run_generate(const GenerateOptions& o) {
   const std::string path = o.checkpoint.empty() ? shipped_generator() : o.checkpoint;
   BuiltinGenerator g = BuiltinGenerator::load(path, skel);
   if (o.guidance >= 0) g.config().guidance = o.guidance;
+  if (o.temperature > 0) g.config().temperature = o.temperature;
   require(o.seconds > 0 && o.seconds <= 600, "must be a number in (0, 600]", {{}, {}, "--seconds"});  // checked when parsed, too
   const auto schedule = parse_text_schedule(o.text);
   const Trajectory hist = history_from(o.from, skel, g.history_frames());
@@ -219,6 +224,8 @@ void run_eval(const EvalOptions& o) {
   const Skeleton& skel = humanoid_skeleton();
   const std::string path = o.checkpoint.empty() ? shipped_generator() : o.checkpoint;
   BuiltinGenerator g = BuiltinGenerator::load(path, skel);
+  if (o.guidance >= 0) g.config().guidance = o.guidance;
+  if (o.temperature > 0) g.config().temperature = o.temperature;
   const std::string root = data_root(o.data);
   Rng data_rng(12345);
   const GeneratorEvalSet ev = make_generator_eval_set(root, skel, data_rng);
@@ -228,7 +235,7 @@ void run_eval(const EvalOptions& o) {
             "'" + p + "' is not a class of the arm catalog found under " + root, {{}, {}, "--prompts"});
   require(prompts == ev.prompts, "--prompts must list every catalog class in catalog order (the classifier's classes)",
           {{}, {}, "--prompts"});
-  std::cout << "generator " << path << "; classifier: nearest class mean of 48 arm-feature statistics, " << ev.train.labels.size()
+  std::cout << "generator " << path << " (guidance " << g.config().guidance << ", temperature " << g.config().temperature << "); classifier: nearest class mean of 48 arm-feature statistics, " << ev.train.labels.size()
             << " labelled 2-s windows of walks with switched arms (seed 12345); " << ev.histories.size()
             << " walking histories\n";
   const ArmFollowingReport real_blend = evaluate_samples(ev.train, ev.prompts, ev.classifier);
@@ -281,6 +288,14 @@ void run_eval(const EvalOptions& o) {
     std::ofstream(o.out) << j.dump(2) << "\n";
     std::cout << "wrote " << o.out << "\n";
   }
+  if (!o.save.empty()) {  // the same weights with the sampling settings just evaluated
+    nlohmann::json p = g.provenance().is_object() ? g.provenance() : nlohmann::json::object();
+    p["sampling"] = {{"guidance", g.config().guidance}, {"temperature", g.config().temperature},
+                     {"set_by", cli::provenance_line()}, {"overall_accuracy", gen.overall_accuracy()}};
+    g.set_provenance(p);
+    g.save(o.save);
+    std::cout << "wrote " << o.save << " (guidance " << g.config().guidance << ", temperature " << g.config().temperature << ")\n";
+  }
 }
 
 const bool registered = maskadapt::cli::register_command([](CLI::App& app) {
@@ -289,7 +304,7 @@ const bool registered = maskadapt::cli::register_command([](CLI::App& app) {
   train->add_option("--data", topt->data, "data directory holding motions/ (default: $MASKADAPT_DATA_DIR, else ../shared/data)");
   train->add_option("--data-mix", topt->mix, "arms: CMU + arm catalog + Bandai walks + arm-switch blends (default); legacy: CMU + synthetic clips only (the first version, for comparison)")
       ->check(maskadapt::cli::one_of({"arms", "legacy"}));
-  train->add_option("--arm-seconds", topt->arm_seconds, "seconds of switched arm motion per arm class in the blends (default 60)")
+  train->add_option("--arm-seconds", topt->arm_seconds, "seconds of switched arm motion per arm class in the blends (default 120)")
       ->check(maskadapt::cli::non_negative_real());
   using namespace maskadapt::cli;
   auto* minutes = train->add_option("--minutes", topt->minutes, "wall-clock budget, split between the VAE and the diffusion stage")
@@ -301,6 +316,10 @@ const bool registered = maskadapt::cli::register_command([](CLI::App& app) {
   train->add_option("--stride", topt->stride, "frames between training windows (default 2)")
       ->transform(positive_integer(std::numeric_limits<int>::max()));
   train->add_option("--seed", topt->seed, "random seed")->transform(non_negative_integer());
+  train->add_option("--guidance", topt->guidance, "classifier-free guidance weight stored with the model (default 5)")
+      ->check(non_negative_real());
+  train->add_option("--temperature", topt->temperature, "sampling temperature in (0, 1] stored with the model (default 1)")
+      ->check(real_in(0, 1, true, false));
   train->add_option("--out", topt->out, "checkpoint to write")->required();
   train->callback([topt] { run_train(*topt); });
 
@@ -313,6 +332,8 @@ const bool registered = maskadapt::cli::register_command([](CLI::App& app) {
   gen->add_option("--seconds", gopt->seconds, "length (s)")->check(real_in(0, 600, true, false));
   gen->add_option("--guidance", gopt->guidance, "classifier-free guidance weight (default: the checkpoint's, 5)")
       ->check(non_negative_real());
+  gen->add_option("--temperature", gopt->temperature, "sampling temperature in (0, 1] (default: the checkpoint's)")
+      ->check(real_in(0, 1, true, false));
   gen->add_option("--seed", gopt->seed, "random seed")->transform(non_negative_integer());
   gen->add_option("--bvh", gopt->bvh, "write the motion as BVH");
   gen->callback([gopt] { run_generate(*gopt); });
@@ -323,8 +344,13 @@ const bool registered = maskadapt::cli::register_command([](CLI::App& app) {
   ev->add_option("--data", eopt->data, "data directory holding motions/ (default: $MASKADAPT_DATA_DIR, else ../shared/data)");
   ev->add_option("--samples", eopt->samples, "samples per prompt (default 10)")->transform(integer_in(2, 10000));
   ev->add_option("--seed", eopt->seed, "sample i uses seed + i")->transform(non_negative_integer());
+  ev->add_option("--guidance", eopt->guidance, "classifier-free guidance weight (default: the checkpoint's)")
+      ->check(non_negative_real());
+  ev->add_option("--temperature", eopt->temperature, "sampling temperature in (0, 1] (default: the checkpoint's)")
+      ->check(real_in(0, 1, true, false));
   ev->add_option("--paraphrases", eopt->paraphrases, "prompts to map onto the pool (default: a built-in list)");
   ev->add_option("--out", eopt->out, "write the figures as JSON");
+  ev->add_option("--save", eopt->save, "write the checkpoint again with the evaluated --guidance/--temperature as its defaults");
   ev->callback([eopt] { run_eval(*eopt); });
 });
 

@@ -131,7 +131,7 @@ inline ArmData load_arm_data(const std::string& data_dir) {
 }
 
 struct ArmSwitchOptions {
-  double active_seconds_per_class = 60.0;  ///< total seconds of arm motion per class (fade included)
+  double active_seconds_per_class = 120.0;  ///< total seconds of arm motion per class (fade included)
   double min_on_s = 0.7, max_on_s = 2.5;    ///< switch time after the walk clip's start (s)
   double min_hold_s = 2.0, max_hold_s = 4.0; ///< length of the switched segment when it switches back (s)
   double back_probability = 0.5;            ///< chance that the arms return to the walk's swing

@@ -6,7 +6,8 @@
 ///
 /// generate(text, history): h = normalise(encode_frames(history)) (H·D); the latent is sampled by
 /// DDPM (T = 10, cosine schedule) with classifier-free guidance, x̂₀ = w·f(x_t, t, e, h) +
-/// (1 − w)·f(x_t, t, 0, h), w = 5; the VAE decoder maps (h, latent_scale · x₀) to the F future
+/// (1 − w)·f(x_t, t, 0, h), w = 5, its noise scaled by the temperature τ (config; 1 = plain DDPM);
+/// the VAE decoder maps (h, latent_scale · x₀) to the F future
 /// frames, which are denormalised and decoded to a Trajectory in the history's canonical frame.
 ///
 /// Save/load (core/checkpoint.hpp): section "generator.config" (JSON: sizes, activations,
@@ -48,6 +49,9 @@ struct BuiltinGeneratorConfig {
   DenoiserConfig denoiser;         ///< K = 256, E = 32, hidden [256, 256], dropout 0.1
   int diffusion_steps = 10;        ///< T
   double guidance = 5.0;           ///< classifier-free guidance weight w
+  /// Sampling temperature τ ∈ (0, 1]: x_{T−1} and every ancestral step's noise are scaled by τ
+  /// (τ = 1: plain DDPM; smaller: samples nearer the conditional mode, less diverse).
+  double temperature = 1.0;
 };
 
 class BuiltinGenerator {
@@ -113,7 +117,24 @@ class BuiltinGenerator {
       if (unconditional || w == 1.0) return cond;
       return guided_prediction<float>(cond, denoiser_.predict(xt, t, zero, hn), w);
     };
-    return latent_scale_ * ddpm_sample<float>(schedule_, vae_.latent_dim(), B, predict, rng);
+    if (config_.temperature == 1.0) return latent_scale_ * ddpm_sample<float>(schedule_, vae_.latent_dim(), B, predict, rng);
+    // ddpm_sample with the noise scaled by τ (same draws from rng, in the same order)
+    const float tau = static_cast<float>(config_.temperature);
+    MatrixXf x(vae_.latent_dim(), B);
+    for (Index j = 0; j < B; ++j)
+      for (Index i = 0; i < x.rows(); ++i) x(i, j) = tau * static_cast<float>(rng.normal());
+    for (int t = schedule_.num_steps() - 1; t >= 0; --t) {
+      const MatrixXf x0_hat = predict(x, t);
+      require_finite(x0_hat, "x0_hat");
+      MatrixXf next = posterior_mean<float>(schedule_, t, x0_hat, x);
+      if (t > 0) {
+        const float sigma = tau * static_cast<float>(std::sqrt(schedule_.posterior_variance[t]));
+        for (Index j = 0; j < B; ++j)
+          for (Index i = 0; i < next.rows(); ++i) next(i, j) += sigma * static_cast<float>(rng.normal());
+      }
+      x = std::move(next);
+    }
+    return latent_scale_ * x;
   }
 
   // ---- persistence ---------------------------------------------------------------------------
@@ -165,6 +186,7 @@ class BuiltinGenerator {
       c.denoiser.cond_dropout = j.at("cond_dropout").get<double>();
       c.diffusion_steps = j.at("diffusion_steps").get<int>();
       c.guidance = j.at("guidance").get<double>();
+      c.temperature = j.value("temperature", 1.0);  // absent in files written before it existed
       names = j.at("bodies").get<std::vector<std::string>>();
     } catch (const Error&) {
       throw;
@@ -172,6 +194,7 @@ class BuiltinGenerator {
       throw Error(std::string("bad generator config: ") + e.what(), {file, {}, "generator.config"});
     }
     require(names == skel.names, "checkpoint was trained on another skeleton", {file, {}, "generator.config.bodies"});
+    require(c.temperature > 0 && c.temperature <= 1, "temperature must lie in (0, 1]", {file, {}, "generator.config.temperature"});
     Rng rng(0);
     BuiltinGenerator g(skel, c, rng);
     // Read everything first (validated), then assign.
@@ -223,6 +246,7 @@ class BuiltinGenerator {
             {"cond_dropout", config_.denoiser.cond_dropout},
             {"diffusion_steps", config_.diffusion_steps},
             {"guidance", config_.guidance},
+            {"temperature", config_.temperature},
             {"bodies", skel_.names}};
   }
 
