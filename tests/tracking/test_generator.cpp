@@ -78,7 +78,7 @@ TEST(Generator, PrimitiveDatasetWindows) {
   const MatrixXf f = encode_frames<float>(skel, local);
   EXPECT_LT((d.history.col(3) - Eigen::Map<const VectorXf>(f.data(), 5 * 202)).cwiseAbs().maxCoeff(), 1e-5f);
   EXPECT_LT((d.future.col(3) - Eigen::Map<const VectorXf>(f.data() + 5 * 202, 15 * 202)).cwiseAbs().maxCoeff(), 1e-5f);
-  std::vector<LabelledTrajectory> short_clip = {{"short", {"x"}, test::make_motion(10, 1, 0, 0)}};
+  std::vector<LabelledTrajectory> short_clip = {{"short", {"x"}, test::make_motion(10, 1, 0, 0), {}}};
   EXPECT_THROW(make_primitive_dataset(skel, short_clip, 5, 15), Error);
 }
 

@@ -39,8 +39,8 @@ inline Trajectory make_motion(Index n, double speed, double turn, double arm, do
 }
 
 inline std::vector<LabelledTrajectory> make_clips() {
-  return {{"swing", {"wave hands", "swing arms"}, make_motion(90, 1.0, 0.2, 0.8)},
-          {"raise", {"raise arms"}, make_motion(90, 0.3, -0.3, 1.4, 1.0)}};
+  return {{"swing", {"wave hands", "swing arms"}, make_motion(90, 1.0, 0.2, 0.8), {}},
+          {"raise", {"raise arms"}, make_motion(90, 0.3, -0.3, 1.4, 1.0), {}}};
 }
 
 }  // namespace maskadapt::tracking::test

@@ -1,0 +1,73 @@
+// The generator committed under models/ (models/README.md "text_generator.bin"): it loads, has the
+// documented sizes and provenance, and — when the shared data are present — follows its arms
+// prompts from a walking history: the nearest-class-mean probe (tracking/arm_eval.hpp) recovers
+// the prompt in ≥ 65 % of 10 samples per prompt over the 13 prompts (chance: 1/13 ≈ 8 %; the
+// first generator scored 7.7 %), and samples from different seeds differ. 65 % is a regression
+// floor under the measured 70.8 % (docs/generator.md): issue 19's 80 % is NOT met — the same
+// classifier scores 78.7 % on the real labelled windows it was fitted on.
+#include <maskadapt/humanoid/description.hpp>
+#include <maskadapt/tracking/arm_data.hpp>
+#include <maskadapt/tracking/arm_eval.hpp>
+#include <maskadapt/tracking/builtin_generator.hpp>
+
+#include <gtest/gtest.h>
+
+#include <cstdlib>
+#include <filesystem>
+
+using namespace maskadapt;
+using namespace maskadapt::tracking;
+
+namespace {
+
+const std::string kPath = MASKADAPT_SOURCE_DIR "/models/text_generator.bin";
+
+std::string data_dir() {
+  const char* env = std::getenv("MASKADAPT_DATA_DIR");
+  return env && *env ? env : MASKADAPT_DEFAULT_DATA_DIR;
+}
+
+}  // namespace
+
+TEST(ShippedGenerator, LoadsWithItsSizesPoolAndProvenance) {
+  const BuiltinGenerator g = BuiltinGenerator::load(kPath, humanoid_skeleton());
+  EXPECT_EQ(g.history_frames(), 5);
+  EXPECT_EQ(g.future_frames(), 15);
+  EXPECT_EQ(g.vae().latent_dim(), 32);
+  EXPECT_EQ(g.vae().frame_dim(), 202);
+  EXPECT_EQ(g.config().denoiser.text_features, 256);
+  EXPECT_EQ(g.config().diffusion_steps, 10);
+  // the arms pool: every class of the catalog (it was trained with the shared data present)
+  std::vector<std::string> catalog;
+  for (const auto& c : arm_catalog()) catalog.push_back(c.prompt);
+  EXPECT_EQ(g.arms_pool(), catalog);
+  const auto& p = g.provenance();
+  ASSERT_TRUE(p.is_object());
+  for (const char* k : {"command", "git_commit", "machine", "seed", "data_mix", "vae_iterations", "diffusion_iterations"})
+    EXPECT_TRUE(p.contains(k)) << k;
+  EXPECT_EQ(p.at("data_mix"), "arms");
+  EXPECT_GT(p.at("diffusion_iterations").get<long long>(), 1000);
+  EXPECT_EQ(p.at("seed"), 1);
+  EXPECT_LT(std::filesystem::file_size(kPath), 16u << 20);
+}
+
+TEST(ShippedGenerator, FollowsItsArmsPromptsFromAWalk) {
+  const std::string dir = data_dir();
+  if (!std::filesystem::is_directory(dir + "/motions/bandai/gestures"))
+    GTEST_SKIP() << "no arm clips under " << dir << "/motions (set MASKADAPT_DATA_DIR): the probe needs them";
+  const Skeleton& skel = humanoid_skeleton();
+  BuiltinGenerator g = BuiltinGenerator::load(kPath, skel);
+  Rng rng(12345);  // the seed of `maskadapt eval-generator`
+  const GeneratorEvalSet ev = make_generator_eval_set(dir, skel, rng);
+  ASSERT_EQ(ev.prompts, g.arms_pool());
+  PromptEvalOptions o;
+  o.samples = 10;
+  const ArmFollowingReport r = evaluate_prompts(g, ev.prompts, ev.histories, ev.classifier, o);
+  std::string table;
+  for (std::size_t i = 0; i < r.classes.size(); ++i)
+    table += r.classes[i] + ": " + std::to_string(r.accuracy[i]) + " (diversity " + std::to_string(r.diversity[i]) + ")\n";
+  EXPECT_GE(r.overall_accuracy(), 0.65) << table;
+  // the wave prompts, the classes the probe separates best on real motion, are followed
+  for (std::size_t i = 0; i < 3; ++i) EXPECT_GE(r.accuracy[i], 0.8) << r.classes[i] << "\n" << table;
+  for (std::size_t i = 0; i < r.classes.size(); ++i) EXPECT_GT(r.diversity[i], 1e-3) << r.classes[i];
+}
