@@ -52,6 +52,7 @@ void run_train_base(const TrainBaseArgs& a) {
     resume = std::make_unique<Checkpoint>(load_checkpoint(a.resume));
     cfg = config_from_string(resume->get_string("config"), a.resume + " (config)");
   }
+  const std::uint64_t checkpoint_seed = cfg.run.seed;
   if (!a.config.empty()) cfg = load_config(a.config);
   if (!a.motions.empty()) cfg.env.motions = a.motions;
   if (a.envs >= 1) cfg.env.num_envs = a.envs;
@@ -90,6 +91,11 @@ void run_train_base(const TrainBaseArgs& a) {
   if (resume) {
     trainer.load(*resume);
     std::cout << "train-base: resumed at iteration " << trainer.iteration() << " from " << a.resume << "\n";
+    if (cfg.run.seed != checkpoint_seed) {  // --seed S on a resume forks the run onto seed S
+      trainer.reseed(cfg.run.seed);
+      std::cout << "train-base: forked from seed " << checkpoint_seed << " onto seed " << cfg.run.seed
+                << " (random streams restart; parameters and env states continue)\n";
+    }
   }
   trainer.add_provenance(cli::provenance_line() + (resume ? " (resumed at iteration " + std::to_string(trainer.iteration()) +
                                                                 ", sample " + std::to_string(trainer.samples()) + ")"
@@ -116,7 +122,7 @@ const bool registered = maskadapt::cli::register_command([](CLI::App& app) {
                 "iteration budget (total, including resumed ones; 0 = none, then a --minutes budget is needed)")
       ->transform(non_negative_integer());
   c->add_option("--minutes", args->minutes, "wall-clock budget in minutes")->check(positive_real());
-  c->add_option("--seed", args->seed, "master seed")->transform(non_negative_integer());
+  c->add_option("--seed", args->seed, "master seed (with --resume: forks the run onto this seed)")->transform(non_negative_integer());
   c->add_option("--out", args->out, "output directory");
   c->add_option("--lambda-mi", args->lambda_mi, "weight of the mask-invariant loss (0 disables)")->check(non_negative_real());
   c->add_option("--mask-prob", args->mask_prob, "probability of a non-empty mask per step")->check(probability());

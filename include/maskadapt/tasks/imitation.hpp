@@ -278,6 +278,13 @@ class ImitationTask {
     return st;
   }
 
+  /// Restarts every env's random stream from `seed` (env e: Rng::stream(seed, e)), keeping the
+  /// envs' physical state, step counts and masks: a resumed run forked onto another seed draws
+  /// its future resets and masks from the new streams.
+  void reseed(std::uint64_t seed) {
+    for (std::size_t e = 0; e < rngs_.size(); ++e) rngs_[e] = Rng::stream(seed, static_cast<std::uint64_t>(e));
+  }
+
   /// Restores a saved state. Throws naming the field if the sizes do not match this task.
   /// Without simulator states (a simulator that cannot save them), every env is reset by RSI
   /// instead, from the restored RNG streams: training continues, but not bit-exactly.

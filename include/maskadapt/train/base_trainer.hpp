@@ -238,6 +238,17 @@ class BaseTrainer {
     train_seconds_ = c.contains("provenance/train_seconds") ? c.get_double("provenance/train_seconds") : NAN;
   }
 
+  /// Forks a resumed run onto another seed: the trainer's stream (action noise, minibatches,
+  /// discriminator samples) and every env's stream restart from `seed`, while parameters,
+  /// optimiser moments, replay buffer, env states and counters continue. A run forked at
+  /// iteration k with seed s is itself bit-exactly resumable (its checkpoints hold the new
+  /// streams and `run.seed` = s).
+  void reseed(std::uint64_t seed) {
+    cfg_.run.seed = seed;
+    rng_ = Rng::stream(seed, 0xB45E0000ULL);
+    task_.reseed(seed);
+  }
+
   /// Appends one line to the run's history (what started or resumed it: date, git commit,
   /// command line); saved in `provenance/history` and carried into exported models.
   void add_provenance(const std::string& line) { provenance_ += line + "\n"; }
