@@ -1,9 +1,12 @@
 // `maskadapt eval-base`: the H_norm table of a stage-1 base policy (null mask, every mask of one
 // or two parts; random and shared initial states) with fall rates and episode lengths.
+// `maskadapt hnorm-threshold`: H_norm of kinematic probes of the reference data (replay, a frozen
+// pose, one clip) over a range of thresholds, to choose eval-base's --threshold.
 #include "cli_checks.hpp"
 #include "command_registry.hpp"
 
 #include <maskadapt/core/checkpoint.hpp>
+#include <maskadapt/eval/threshold_probes.hpp>
 #include <maskadapt/mask/sampler.hpp>
 #include <maskadapt/train/config.hpp>
 #include <maskadapt/train/base_policy.hpp>
@@ -17,6 +20,7 @@
 
 #include <filesystem>
 #include <fstream>
+#include <iomanip>
 #include <iostream>
 #include <memory>
 
@@ -28,8 +32,11 @@ struct EvalBaseArgs {
   int envs = 10, threads = 0;
   long long frames = 1000, seed = 1;
   double threshold = 0.5, episode_seconds = 10.0;
+  std::string counting = "nearest";
   bool deterministic = false;
 };
+
+void write_json(const std::string& path, const nlohmann::json& j);
 
 void run_eval_base(const EvalBaseArgs& a) {
   using namespace maskadapt;
@@ -51,6 +58,7 @@ void run_eval_base(const EvalBaseArgs& a) {
   EvalBaseOptions opt;
   opt.frames = a.frames;
   opt.threshold = a.threshold;
+  opt.counting = eval::visit_counting_from_string(a.counting, "--counting");
   opt.episode_seconds = a.episode_seconds;
   opt.deterministic = a.deterministic;
   opt.seed = static_cast<std::uint64_t>(a.seed);
@@ -58,7 +66,7 @@ void run_eval_base(const EvalBaseArgs& a) {
             << (loaded.policy_only ? ", model (policy only)" : "") << ", masking "
             << (loaded.config.mask.enabled ? "on" : "off") << ", lambda_MI " << loaded.config.mask.lambda_mi << "); "
             << reference.cols() << " reference frames from " << lib->num_clips() << " clip(s); 16 masks x 2 starts x "
-            << a.envs << " envs x " << a.frames << " frames; threshold " << a.threshold << " m\n";
+            << a.envs << " envs x " << a.frames << " frames; threshold " << a.threshold << " m, counting " << a.counting << "\n";
   Stopwatch clock;
   BaseEvaluation ev = evaluate_base_policy(sim, loaded.policy, library_reset_sampler(lib), reference, opt, std::nullopt,
                                                  loaded.config.env.termination_height, &pool, &std::cout);
@@ -73,16 +81,81 @@ void run_eval_base(const EvalBaseArgs& a) {
     j["motions"] = motions;
     j["lambda_mi"] = loaded.config.mask.lambda_mi;
     j["masking"] = loaded.config.mask.enabled;
-    const auto parent = std::filesystem::path(a.json).parent_path();
-    if (!parent.empty()) std::filesystem::create_directories(parent);
-    std::ofstream f(a.json);
-    require(static_cast<bool>(f), "cannot open for writing", {a.json, std::nullopt, {}});
-    f << j.dump(2) << "\n";
-    require(static_cast<bool>(f), "write failed", {a.json, std::nullopt, {}});
+    write_json(a.json, j);
     std::cout << "eval-base: table written to " << a.json << "\n";
   }
 #endif
 }
+
+void write_json(const std::string& path, const nlohmann::json& j) {
+  using maskadapt::require;
+  const auto parent = std::filesystem::path(path).parent_path();
+  if (!parent.empty()) std::filesystem::create_directories(parent);
+  std::ofstream f(path);
+  require(static_cast<bool>(f), "cannot open for writing", {path, std::nullopt, {}});
+  f << j.dump(2) << "\n";
+  require(static_cast<bool>(f), "write failed", {path, std::nullopt, {}});
+}
+
+struct ThresholdArgs {
+  std::vector<std::string> motions = {"locomotion"};
+  std::vector<double> thresholds = {0.05, 0.1, 0.15, 0.2, 0.3, 0.5, 1.0};
+  int windows = 32;
+  long long frames = 300, seed = 1;
+  int probes = 8;
+  std::string json, counting = "nearest";
+};
+
+void run_hnorm_threshold(const ThresholdArgs& a) {
+  using namespace maskadapt;
+  auto lib = train::load_motion_library(a.motions, motion_data_dir(MASKADAPT_SOURCE_DIR "/../shared/data"));
+  const MatrixXf reference = train::reference_visitation_features(*lib);
+  std::vector<Index> clip_frames;
+  for (int c = 0; c < lib->num_clips(); ++c) clip_frames.push_back(lib->clip(c).num_frames());
+  eval::ThresholdProbeOptions opt;
+  opt.windows = a.windows;
+  opt.window_frames = a.frames;
+  opt.probes = a.probes;
+  opt.counting = eval::visit_counting_from_string(a.counting, "--counting");
+  opt.seed = static_cast<std::uint64_t>(a.seed);
+  std::cout << "hnorm-threshold: " << reference.cols() << " reference frames from " << lib->num_clips()
+            << " clip(s); replay " << a.windows << " windows x " << a.frames << " frames; frozen pose and one clip: mean (max) of "
+            << a.probes << " draws; counting " << a.counting << "\n\n";
+  const auto probes = eval::probe_thresholds(reference, clip_frames, a.thresholds, opt);
+  std::cout << "| threshold (m) | replay | frozen pose | one clip |\n| --- | --- | --- | --- |\n" << std::fixed
+            << std::setprecision(3);
+  nlohmann::json rows = nlohmann::json::array();
+  for (const auto& p : probes) {
+    std::cout << "| " << p.threshold << " | " << p.replay << " | " << p.frozen << " (" << p.frozen_max << ") | "
+              << p.one_clip << " (" << p.one_clip_max << ") |\n";
+    rows.push_back({{"threshold", p.threshold}, {"replay", p.replay}, {"frozen", p.frozen}, {"frozen_max", p.frozen_max},
+                    {"one_clip", p.one_clip}, {"one_clip_max", p.one_clip_max}});
+  }
+  if (!a.json.empty()) {
+    const nlohmann::json j = {{"motions", a.motions}, {"reference_frames", reference.cols()}, {"clips", lib->num_clips()},
+                              {"windows", a.windows}, {"frames", a.frames}, {"probes", a.probes}, {"counting", a.counting},
+                              {"seed", a.seed}, {"rows", rows}};
+    write_json(a.json, j);
+    std::cout << "hnorm-threshold: written to " << a.json << "\n";
+  }
+}
+
+const bool registered_threshold = maskadapt::cli::register_command([](CLI::App& app) {
+  auto args = std::make_shared<ThresholdArgs>();
+  CLI::App* c = app.add_subcommand("hnorm-threshold",
+                                   "H_norm of kinematic probes (replay, frozen pose, one clip) per threshold, to choose eval-base --threshold");
+  using namespace maskadapt::cli;
+  c->add_option("--motions", args->motions, "reference motions (builtin set names, directories or files)");
+  c->add_option("--thresholds", args->thresholds, "distances to probe (m)")->check(positive_real())->delimiter(',');
+  c->add_option("--windows", args->windows, "replay windows (eval-base: --envs)")->transform(integer_in(1, 65536));
+  c->add_option("--frames", args->frames, "frames per replay window (eval-base: --frames)")->transform(positive_integer());
+  c->add_option("--probes", args->probes, "frozen poses and single clips averaged")->transform(integer_in(1, 1024));
+  c->add_option("--seed", args->seed, "seed")->transform(non_negative_integer());
+  c->add_option("--counting", args->counting, "visits: nearest (one per frame) or all_within (every frame within the threshold)")
+      ->check(CLI::IsMember({"nearest", "all_within"}));
+  c->add_option("--json", args->json, "write the table as JSON");
+  c->callback([args] { run_hnorm_threshold(*args); });
+});
 
 const bool registered = maskadapt::cli::register_command([](CLI::App& app) {
   auto args = std::make_shared<EvalBaseArgs>();
@@ -100,6 +173,10 @@ const bool registered = maskadapt::cli::register_command([](CLI::App& app) {
   c->add_option("--threads", args->threads, "simulation threads (0 = all cores)")
       ->transform(integer_in(0, maskadapt::train::kMaxThreads));
   c->add_option("--json", args->json, "write the table as JSON");
+  c->add_option("--counting", args->counting,
+                "visits: nearest (each frame visits its nearest reference frame within the threshold) or all_within "
+                "(every reference frame within the threshold, the paper's wording)")
+      ->check(CLI::IsMember({"nearest", "all_within"}));
   c->add_flag("--deterministic", args->deterministic, "use the policy mean instead of sampling");
   c->callback([args] { run_eval_base(*args); });
 });

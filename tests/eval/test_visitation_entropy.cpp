@@ -97,12 +97,51 @@ TEST(VisitationEntropy, MatchesTheBruteForceDefinitionOnRandomData) {
   for (Index k = 0; k < gen.size(); ++k) gen.data()[k] = rng.normal();
   for (double thr : {1.5, 2.5, 3.5}) {
     const auto expected = brute_force_counts(ref, gen, thr);
-    const auto r = visitation_entropy(ref, gen, thr, 128);
+    const auto r = visitation_entropy(ref, gen, thr, eval::VisitCounting::all_within, 128);
     EXPECT_EQ(r.counts, expected) << "threshold " << thr;
     EXPECT_NEAR(r.h_norm, normalized_entropy(expected), 1e-12);
     EXPECT_GT(r.h_norm, 0.0);
     EXPECT_LT(r.h_norm, 1.0);
   }
+}
+
+// Nearest mode against its definition computed pair by pair: each generated frame adds one count
+// to its nearest reference frame (ties: lowest index) if that is within the threshold.
+TEST(VisitationEntropy, NearestCountingMatchesTheBruteForceDefinition) {
+  Rng rng(11);
+  const Index d = 5, n = 143, m = 1031;
+  MatrixXd ref(d, n), gen(d, m);
+  for (Index k = 0; k < ref.size(); ++k) ref.data()[k] = rng.normal();
+  for (Index k = 0; k < gen.size(); ++k) gen.data()[k] = rng.normal();
+  for (double thr : {0.8, 1.5, 100.0}) {
+    std::vector<std::int64_t> expected(static_cast<std::size_t>(n), 0);
+    std::int64_t matched = 0;
+    for (Index j = 0; j < m; ++j) {
+      Index best = 0;
+      for (Index i = 1; i < n; ++i)
+        if ((gen.col(j) - ref.col(i)).squaredNorm() < (gen.col(j) - ref.col(best)).squaredNorm()) best = i;
+      if ((gen.col(j) - ref.col(best)).norm() <= thr) {
+        ++expected[static_cast<std::size_t>(best)];
+        ++matched;
+      }
+    }
+    const auto r = visitation_entropy(ref, gen, thr, eval::VisitCounting::nearest, 128);
+    EXPECT_EQ(r.counts, expected) << "threshold " << thr;
+    EXPECT_EQ(r.matched_generated, matched);
+    EXPECT_EQ(r.total_count, matched) << "one count per matched frame";
+    EXPECT_NEAR(r.h_norm, normalized_entropy(expected), 1e-12);
+  }
+}
+
+// A frozen pose visits one reference frame in nearest mode whatever the threshold; in all_within
+// mode a threshold that covers the data makes it look fully diverse.
+TEST(VisitationEntropy, AFrozenPoseScoresZeroWhenCountingTheNearestFrameOnly) {
+  const MatrixXf ref = line_frames({0, 1, 2, 3, 4, 5, 6, 7});
+  const MatrixXf frozen = MatrixXf(ref.col(3)).replicate(1, 50);
+  EXPECT_DOUBLE_EQ(visitation_entropy(ref, frozen, 100.0, eval::VisitCounting::nearest).h_norm, 0.0);
+  EXPECT_NEAR(visitation_entropy(ref, frozen, 100.0, eval::VisitCounting::all_within).h_norm, 1.0, 1e-12);
+  EXPECT_EQ(eval::visit_counting_from_string("nearest"), eval::VisitCounting::nearest);
+  EXPECT_THROW(eval::visit_counting_from_string("closest"), Error);
 }
 
 TEST(VisitationEntropy, RejectsBadInput) {

@@ -31,7 +31,7 @@ tasks::ResetSampler upright(const Skeleton& skel) {
 }
 
 BaseTrainConfig tiny_config() {
-  BaseTrainConfig c = cpu_preset();
+  BaseTrainConfig c;  // the paper's formulation (struct defaults), not the cpu preset's walking recipe
   c.net.actor_hidden = {8};
   c.net.critic_hidden = {8};
   c.net.disc_hidden = {8};
@@ -159,12 +159,23 @@ TEST(EvalBase, HNormReachesItsClosedFormExtremes) {
   // reference: 7 arbitrary frames of the right dimension
   const Index d = visitation_features(f.sim.skeleton(), f.sim.body_states(0)).size();
   const MatrixXf ref = MatrixXf::Random(d, 7);
-  // a threshold larger than any distance: every generated frame counts for every reference frame → uniform → 1
+  // a threshold larger than any distance, counting all_within: every generated frame counts for
+  // every reference frame → uniform → 1
   opt.threshold = 1e6;
+  opt.counting = eval::VisitCounting::all_within;
   const auto all = evaluate_visitation(f.sim, f.policy, upright(f.sim.skeleton()), PartMask::none(), ref, opt, f.fall());
   EXPECT_DOUBLE_EQ(all.h_norm, 1.0);
   EXPECT_DOUBLE_EQ(all.matched_fraction, 1.0);
   EXPECT_DOUBLE_EQ(all.visited_fraction, 1.0);
+  // counting nearest: every frame still matches, but visits one reference frame only; reference
+  // frames made of copies of one column are all equally near, so the lowest index takes every visit → 0
+  opt.counting = eval::VisitCounting::nearest;
+  const auto one = evaluate_visitation(f.sim, f.policy, upright(f.sim.skeleton()), PartMask::none(),
+                                       MatrixXf(ref.col(0).replicate(1, 7)), opt, f.fall());
+  EXPECT_DOUBLE_EQ(one.matched_fraction, 1.0);
+  EXPECT_DOUBLE_EQ(one.visited_fraction, 1.0 / 7.0);
+  EXPECT_EQ(one.h_norm, 0.0);
+  opt.counting = eval::VisitCounting::all_within;
   // threshold 0 against frames far away: nothing matches → 0 by convention
   opt.threshold = 0.0;
   const auto none = evaluate_visitation(f.sim, f.policy, upright(f.sim.skeleton()), PartMask::none(), MatrixXf(ref.array() + 100.f), opt, f.fall());

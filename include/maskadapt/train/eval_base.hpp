@@ -34,6 +34,9 @@ namespace maskadapt::train {
 struct EvalBaseOptions {
   long long frames = 1000;       ///< control steps per env per (mask, mode)
   double threshold = 0.5;        ///< m; Euclidean over the 3·(bodies−1) features (≈ 0.1 m per body on the humanoid)
+  /// nearest: a frame visits its nearest reference frame (if within the threshold); all_within:
+  /// every reference frame within the threshold (eval/visitation_entropy.hpp says why nearest)
+  eval::VisitCounting counting = eval::VisitCounting::nearest;
   double episode_seconds = 10.0; ///< episode limit (s)
   bool deterministic = false;    ///< policy mean instead of samples
   std::uint64_t seed = 1;
@@ -164,7 +167,7 @@ VisitationResult evaluate_visitation(Sim& sim, const BasePolicy& policy, const t
     }
   }
   const auto& es = task.stats();
-  const eval::VisitationEntropy ve = eval::visitation_entropy(reference, generated, opt.threshold);
+  const eval::VisitationEntropy ve = eval::visitation_entropy(reference, generated, opt.threshold, opt.counting);
   VisitationResult r;
   r.h_norm = ve.h_norm;
   r.matched_fraction = static_cast<double>(ve.matched_generated) / static_cast<double>(generated.cols());
@@ -281,6 +284,7 @@ inline nlohmann::json to_json(const BaseEvaluation& ev) {
   j["parts"] = std::vector<std::string>(kPartNames.begin(), kPartNames.end());
   j["frames"] = ev.options.frames;
   j["threshold"] = ev.options.threshold;
+  j["counting"] = eval::to_string(ev.options.counting);
   j["episode_seconds"] = ev.options.episode_seconds;
   j["deterministic"] = ev.options.deterministic;
   j["seed"] = ev.options.seed;
