@@ -47,6 +47,32 @@ TEST(TrainConfig, PresetsCarryThePaperValues) {
   EXPECT_THROW(preset("gpu"), Error);
 }
 
+// The cpu preset is the recipe that walked (docs/results.md, issue 14); the struct's defaults and
+// the paper preset keep the paper's formulation; "custom" starts from the cpu values.
+TEST(TrainConfig, CpuPresetIsTheWalkingRecipe) {
+  const auto c = cpu_preset();
+  EXPECT_DOUBLE_EQ(c.mask.lambda_mi, 0.3);
+  EXPECT_EQ(c.mask.mi_gradient, "target_ema");
+  EXPECT_DOUBLE_EQ(c.mask.mi_target_tau, 0.001);
+  EXPECT_EQ(c.mask.warmup_samples, 5529600);
+  EXPECT_EQ(c.mask.ramp_samples, 1000000);
+  EXPECT_EQ(c.mask.hidden_value, "mean");
+  EXPECT_EQ(c.net.action_offset, "mean_pose");
+  EXPECT_EQ(c.net.action_scale, "half_range");
+  EXPECT_EQ(c.ppo.actor_lr_schedule, "adaptive");
+  EXPECT_EQ(c.run.iterations, 7800);
+  const auto p = paper_preset();
+  EXPECT_DOUBLE_EQ(p.mask.lambda_mi, 1.0);
+  EXPECT_EQ(p.mask.warmup_samples, 0);
+  EXPECT_EQ(p.mask.hidden_value, "zero");
+  EXPECT_EQ(p.net.action_offset, "zero");
+  EXPECT_EQ(p.ppo.actor_lr_schedule, "fixed");
+  auto custom = config_from_string(R"({"preset": "custom"})");
+  EXPECT_EQ(custom.preset, "custom");
+  custom.preset = "cpu";
+  EXPECT_EQ(to_json(custom), to_json(c));
+}
+
 TEST(TrainConfig, JsonRoundTripPreservesEveryField) {
   BaseTrainConfig c = paper_preset();
   c.run.seed = 1234567890123ULL;

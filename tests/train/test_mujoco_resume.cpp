@@ -31,7 +31,7 @@ MatrixXf random_targets(const MujocoHumanoidSim& sim, Rng& rng, double amp = 0.3
 }
 
 BaseTrainConfig tiny_config() {
-  BaseTrainConfig c = cpu_preset();
+  BaseTrainConfig c;  // the paper's formulation (struct defaults), not the cpu preset's walking recipe
   c.env.num_envs = 2;
   c.env.motions = {"synthetic"};
   c.env.episode_seconds = 0.5;  // a few truncations (and RSI resets) inside 4 iterations
