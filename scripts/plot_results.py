@@ -1,17 +1,25 @@
 #!/usr/bin/python3
-"""Plots for docs/results.md from training logs and play outputs (needs Debian's python3-matplotlib).
+"""Plots and tables for docs/results.md from training logs, play and eval-base outputs.
 
   scripts/plot_results.py curves OUT.png KEY NAME=runs/x/log.jsonl [NAME=…]   # one stat vs samples
   scripts/plot_results.py paths  OUT.png NAME=root_xy.csv [NAME=…]            # root XY trajectories
+  scripts/plot_results.py hnorm-summary NAME=eval.json [NAME=…]               # Table 1 rows (markdown)
+  scripts/plot_results.py strip  OUT.png rollout.json [EVERY_N_FRAMES]       # side-view stick figures
+
+The plots need Debian's python3-matplotlib; the summary needs only Python.
 """
 import csv
 import json
 import sys
 
-import matplotlib
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
+def pyplot():
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt
 
 
 def read_log(path):
@@ -33,6 +41,7 @@ def smooth(values, k=9):
 
 
 def curves(out, key, runs):
+    plt = pyplot()
     fig, ax = plt.subplots(figsize=(6.4, 3.6), dpi=120)
     for name, path in runs:
         rows = read_log(path)
@@ -48,6 +57,7 @@ def curves(out, key, runs):
 
 
 def paths(out, runs):
+    plt = pyplot()
     fig, ax = plt.subplots(figsize=(5, 5), dpi=120)
     for name, path in runs:
         xs, ys = [], []
@@ -57,12 +67,82 @@ def paths(out, runs):
                 ys.append(float(row["y"]))
         ax.plot(xs, ys, label=name)
         if xs:
-            ax.plot(xs[0], ys[0], "ko", ms=3)
+            ax.plot(xs[0], ys[0], "ko", ms=3)  # start
+            ax.plot(xs[-1], ys[-1], "kx", ms=5)  # end of the recording
     ax.set_xlabel("x (m)")
     ax.set_ylabel("y (m)")
     ax.set_aspect("equal", adjustable="datalim")
     ax.grid(alpha=0.3)
     ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(out)
+
+
+def hnorm_summary(runs):
+    """One markdown row per eval-base JSON: H_norm (null mask; mean over the 15 one- and two-part
+    masks; both legs), fall rates and speed, from random (RSI) and shared initial states."""
+    print("| base | H_norm null (RSI / shared) | H_norm mean of 15 masks (RSI / shared) | H_norm both legs (RSI / shared)"
+          " | falls null | falls mean of 15 masks (RSI / shared) | falls both legs (RSI / shared) | speed null (m/s) |")
+    print("| --- | --- | --- | --- | --- | --- | --- | --- |")
+    for name, path in runs:
+        with open(path) as f:
+            ev = json.load(f)
+        rows = {m["mask"]: m for m in ev["masks"]}
+        masked = [m for k, m in rows.items() if k != "none"]
+
+        def mean(key, start):
+            return sum(m[start][key] for m in masked) / len(masked)
+
+        null, legs = rows["none"], rows["left_leg,right_leg"]
+        print(f"| {name} | {null['rsi']['h_norm']:.3f} / {null['shared']['h_norm']:.3f}"
+              f" | {mean('h_norm', 'rsi'):.3f} / {mean('h_norm', 'shared'):.3f}"
+              f" | {legs['rsi']['h_norm']:.3f} / {legs['shared']['h_norm']:.3f}"
+              f" | {null['rsi']['fall_rate']:.2f}"
+              f" | {mean('fall_rate', 'rsi'):.2f} / {mean('fall_rate', 'shared'):.2f}"
+              f" | {legs['rsi']['fall_rate']:.2f} / {legs['shared']['fall_rate']:.2f}"
+              f" | {null['rsi']['mean_speed']:.2f} |")
+
+
+def strip(out, rollout_path, every=6):
+    """Chronophotograph of a play --rollout file: the skeleton every `every` frames, seen from the
+    side of its overall direction of travel (horizontal axis: distance along it, m; vertical:
+    height, m). Bodies of masked parts are drawn in colour, the rest in grey."""
+    plt = pyplot()
+    with open(rollout_path) as f:
+        ro = json.load(f)
+    bodies = ro["skeleton"]["bodies"]
+    frames = ro["frames"]["positions"]  # per frame: 3 × bodies, world metres
+    masks = ro["frames"]["masks"]
+    parts = ro["part_names"]
+    nb = len(bodies)
+
+    def pos(fr, b):
+        return frames[fr][3 * b: 3 * b + 3]
+
+    x0, y0, _ = pos(0, 0)
+    x1, y1, _ = pos(len(frames) - 1, 0)
+    dx, dy = x1 - x0, y1 - y0
+    norm = (dx * dx + dy * dy) ** 0.5 or 1.0
+    dx, dy = dx / norm, dy / norm
+    colours = {"trunk": "#d4a017", "left_arm": "#e06666", "right_arm": "#e69138", "left_leg": "#1f6fd1", "right_leg": "#0f9ba8"}
+    fig, ax = plt.subplots(figsize=(8, 2.4), dpi=120)
+    lo, hi = 0.0, 0.0
+    for fr in range(0, len(frames), every):
+        mask = masks[fr] if isinstance(masks[fr], int) else 0
+        for b in range(1, nb):
+            parent = bodies[b]["parent"]
+            p, q = pos(fr, parent), pos(fr, b)
+            part = bodies[b]["part"]
+            masked = bool(mask & (1 << parts.index(part))) if part in parts else False
+            u = [(p[0] - x0) * dx + (p[1] - y0) * dy, (q[0] - x0) * dx + (q[1] - y0) * dy]
+            ax.plot(u, [p[2], q[2]], color=colours.get(part, "k") if masked else "0.45", lw=1.4)
+            lo, hi = min(lo, *u), max(hi, *u)
+    ax.set_xlim(lo - 0.2, hi + 0.2)
+    ax.set_ylim(-0.05, 1.9)
+    ax.set_aspect("equal", adjustable="box")
+    ax.set_xlabel(f"distance along the direction of travel (m); every {every} frames = {every / ro['fps']:.2f} s")
+    ax.set_ylabel("height (m)")
+    ax.grid(alpha=0.3)
     fig.tight_layout()
     fig.savefig(out)
 
@@ -76,5 +156,9 @@ if __name__ == "__main__":
         curves(sys.argv[2], sys.argv[3], named(sys.argv[4:]))
     elif len(sys.argv) >= 4 and sys.argv[1] == "paths":
         paths(sys.argv[2], named(sys.argv[3:]))
+    elif len(sys.argv) in (4, 5) and sys.argv[1] == "strip":
+        strip(sys.argv[2], sys.argv[3], int(sys.argv[4]) if len(sys.argv) == 5 else 6)
+    elif len(sys.argv) >= 3 and sys.argv[1] == "hnorm-summary":
+        hnorm_summary(named(sys.argv[2:]))
     else:
         sys.exit(__doc__)
