@@ -78,3 +78,31 @@ TEST(ShippedModels, MaskMiWalkBandaiLoadsWithItsDimsAndProvenance) {
   EXPECT_NE(x_none, x_legs);
 }
 
+
+// The three Table 1 bases (models/README.md, docs/results.md): the same run continued to iteration
+// 8,100 as AMP (mask probability 0), masking without MI and masking with MI; each says so in its
+// config and provenance.
+TEST(ShippedModels, Table1BasesLoadAsTheVariantsTheyClaimToBe) {
+  struct Expected {
+    const char* file;
+    double mask_prob;
+    double lambda_mi;
+    const char* note;
+  };
+  for (const Expected& e : {Expected{"amp_s1.bin", 0.0, 0.0, "Table 1 AMP base"},
+                            Expected{"mask_no_mi_s1.bin", 0.8, 0.0, "Table 1 masking without MI"},
+                            Expected{"mask_mi03_s1.bin", 0.8, 0.3, "Table 1 masking with MI"}}) {
+    const std::string path = std::string(MASKADAPT_SOURCE_DIR "/models/table1/") + e.file;
+    const Checkpoint c = load_checkpoint(path);
+    ASSERT_TRUE(is_policy_export(c)) << path;
+    EXPECT_EQ(c.get_int("trainer/iteration"), 8100) << path;
+    EXPECT_EQ(c.get_int("trainer/samples"), 8100LL * 1024) << path;
+    EXPECT_NE(export_provenance(c).note.find(e.note), std::string::npos) << path;
+    const LoadedBasePolicy base =
+        load_base_policy(c, {kObservationDim, policy_input_dim(kObservationDim), 63, kObservationDim * kAmpWindowFrames}, path);
+    EXPECT_EQ(base.config.env.motions, std::vector<std::string>{"bandai-walk"}) << path;
+    EXPECT_EQ(base.config.mask.prob, e.mask_prob) << path;
+    EXPECT_EQ(base.config.mask.lambda_mi, e.lambda_mi) << path;
+    EXPECT_EQ(base.config.mask.hidden_value, "mean") << path;
+  }
+}
