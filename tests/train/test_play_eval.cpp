@@ -167,11 +167,12 @@ TEST(EvalBase, HNormReachesItsClosedFormExtremes) {
   EXPECT_DOUBLE_EQ(all.h_norm, 1.0);
   EXPECT_DOUBLE_EQ(all.matched_fraction, 1.0);
   EXPECT_DOUBLE_EQ(all.visited_fraction, 1.0);
-  // counting nearest: every frame still matches, but visits one reference frame only; reference
-  // frames made of copies of one column are all equally near, so the lowest index takes every visit → 0
+  // counting nearest: every frame still matches, but visits its nearest reference frame only; with
+  // six of the seven frames moved 100 further away in every feature, column 0 takes every visit → 0
   opt.counting = eval::VisitCounting::nearest;
-  const auto one = evaluate_visitation(f.sim, f.policy, upright(f.sim.skeleton()), PartMask::none(),
-                                       MatrixXf(ref.col(0).replicate(1, 7)), opt, f.fall());
+  MatrixXf one_near = ref;
+  one_near.rightCols(6).array() += 100.f;
+  const auto one = evaluate_visitation(f.sim, f.policy, upright(f.sim.skeleton()), PartMask::none(), one_near, opt, f.fall());
   EXPECT_DOUBLE_EQ(one.matched_fraction, 1.0);
   EXPECT_DOUBLE_EQ(one.visited_fraction, 1.0 / 7.0);
   EXPECT_EQ(one.h_norm, 0.0);

@@ -10,7 +10,8 @@
 ///     adds one count to reference frame i, c_i = #{ j : ‖g_j − r_i‖₂ ≤ threshold };
 ///   - VisitCounting::nearest: each generated frame adds one count to its nearest reference frame,
 ///     if that one is within the threshold, c_i = #{ j : i = argmin_k ‖g_j − r_k‖ ≤ threshold }
-///     (ties: the lowest index).
+///     (ties in the computed distances: the lowest index; distances come from a GEMM, so
+///     reference frames that are exact copies may differ in the last bit between BLAS kernels).
 ///
 ///   p_i = c_i / Σ_k c_k,   H_norm = −Σ_i p_i log p_i / log n        (0 · log 0 = 0).
 ///
