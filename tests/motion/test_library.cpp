@@ -51,7 +51,9 @@ TEST(MotionLibrary, InterpolationAndVelocitiesMatchClosedForms) {
     // central difference over ±h of the interpolated angle: error ≈ A w³ h² / 6 (+ interpolation)
     EXPECT_NEAR(s.qd[knee], kA * w * std::cos(w * t), kA * w * w * w * h * h / 6 + kA * w * w * h / 4);
     for (Index k = 0; k < s.qd.size(); ++k) {
-      if (k != knee) EXPECT_EQ(s.qd[k], 0.0);
+      if (k != knee) {
+        EXPECT_EQ(s.qd[k], 0.0);
+      }
     }
   }
   // at the clip's ends the differences are one-sided and stay finite
