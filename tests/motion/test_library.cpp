@@ -127,12 +127,32 @@ TEST(MotionLibrary, AmpWindowsAreObservationsOfFiveFrames) {
   const Index d = observation_dim(humanoid_skeleton());
   ASSERT_EQ(d, kObservationDim);
   VectorXf win(lib.amp_window_dim());
+  // A 30-fps clip's window shares the poses of neighbouring frames' central differences (7 poses
+  // for 15): the same observations up to the rounding of the shared times. Inside the clip, at
+  // its start (t − 4Δ − h clamped to 0) and at its end (t + h clamped), looping and not.
+  MotionClip looping = synthetic_walk();
+  ASSERT_TRUE(looping.loop);
+  lib.add(looping);
+  MotionClip once = synthetic_kick();
+  once.loop = false;
+  lib.add(once);
+  ASSERT_EQ(lib.clip(0).fps, 30.0);
+  for (int clip : {0, 1, 2})
+    for (double t : {1.0, 4.0 / 30.0, 0.1371, lib.clip(clip).duration(), lib.clip(clip).duration() + 0.73}) {
+      lib.amp_window(clip, t, win);
+      for (int k = 0; k < kAmpWindowFrames; ++k) {
+        const VectorXf o = compute_observation(humanoid_skeleton(), lib.body_states(clip, t - (4 - k) / 30.0));
+        EXPECT_LT((win.segment(k * d, d) - o).cwiseAbs().maxCoeff(), 2e-5f) << "clip " << clip << " t " << t << " frame " << k;
+      }
+    }
+  // other frame rates: every frame computed on its own, exactly as body_states gives it
+  MotionClip fast = synthetic_kick();
+  fast.fps = 60;
+  const int c60 = lib.add(fast);
+  lib.amp_window(c60, 0.5, win);
+  for (int k = 0; k < kAmpWindowFrames; ++k)
+    EXPECT_EQ(win.segment(k * d, d), compute_observation(humanoid_skeleton(), lib.body_states(c60, 0.5 - (4 - k) / 30.0)));
   const double t = 1.0;
-  lib.amp_window(0, t, win);
-  for (int k = 0; k < kAmpWindowFrames; ++k) {
-    const VectorXf o = compute_observation(humanoid_skeleton(), lib.body_states(0, t - (4 - k) / 30.0));
-    EXPECT_EQ(win.segment(k * d, d), o) << k;
-  }
   Rng rng(1);
   const MatrixXf batch = lib.sample_amp_windows(rng, 8);
   EXPECT_EQ(batch.rows(), 5 * kObservationDim);

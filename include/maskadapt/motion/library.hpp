@@ -23,7 +23,9 @@
 #include <maskadapt/motion/rotation.hpp>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
+#include <utility>
 #include <vector>
 
 namespace maskadapt {
@@ -82,26 +84,44 @@ inline void clip_pose(const MotionClip& c, double t, KinematicState& out) {
   }
 }
 
-/// Pose and velocities of a clip at time t (see file comment).
-inline void clip_state(const MotionClip& c, double t, KinematicState& out) {
-  clip_pose(c, t, out);
+/// The times t − h and t + h of the central difference at t (h = 1/fps), clamped to the clip on a
+/// non-looping clip. Their difference is the difference's time step (≤ 1e−12: no velocity).
+inline std::pair<double, double> central_difference_times(const MotionClip& c, double t) {
   const double h = 1.0 / c.fps;
   double t1 = t - h, t2 = t + h;
   if (!c.loop) {
     t1 = std::clamp(t1, 0.0, c.duration());
     t2 = std::clamp(t2, 0.0, c.duration());
   }
+  return {t1, t2};
+}
+
+/// Sets `out`'s velocities from the poses `a` at t1 and `b` at t2 (central_difference_times);
+/// zero when t2 − t1 ≤ 1e−12.
+inline void velocities_from_poses(const KinematicState& a, const KinematicState& b, double t1, double t2,
+                                  KinematicState& out) {
   out.root_lin_vel.setZero();
   out.root_ang_vel.setZero();
-  out.qd = VectorXd::Zero(c.num_dofs());
+  out.qd.setZero(out.q.size());
   if (t2 - t1 <= 1e-12) return;
-  KinematicState a, b;
-  clip_pose(c, t1, a);
-  clip_pose(c, t2, b);
   const double dt = t2 - t1;
   out.root_lin_vel = (b.root_pos - a.root_pos) / dt;
   out.root_ang_vel = angular_velocity(a.root_rot, b.root_rot, dt);
   for (Index k = 0; k < out.qd.size(); ++k) out.qd[k] = wrap_angle(b.q[k] - a.q[k]) / dt;
+}
+
+/// Pose and velocities of a clip at time t (see file comment).
+inline void clip_state(const MotionClip& c, double t, KinematicState& out) {
+  clip_pose(c, t, out);
+  const auto [t1, t2] = central_difference_times(c, t);
+  if (t2 - t1 <= 1e-12) {
+    velocities_from_poses(out, out, t1, t2, out);
+    return;
+  }
+  KinematicState a, b;
+  clip_pose(c, t1, a);
+  clip_pose(c, t2, b);
+  velocities_from_poses(a, b, t1, t2, out);
 }
 
 /// Root-relative body positions in the root's heading frame for the bodies (≥ 1) of the parts
@@ -201,12 +221,36 @@ class MotionLibrary {
 
   /// The AMP sample ending at `t_end`: observations (humanoid/observation.hpp) of the frames at
   /// t_end − 4Δ, …, t_end (Δ = 1/30 s), oldest first, stacked into `out` (amp_window_dim()).
+  ///
+  /// On a clip recorded at 1/Δ = 30 fps, the central differences of neighbouring window frames share
+  /// their poses (frame k's t + h is frame k+1's time), so the window interpolates 7 poses, not 15:
+  /// t_end − 5Δ … t_end + Δ. The shared pose's time differs from t_k ± h by rounding only
+  /// (≤ 1e−15 s); clamping at the ends of a non-looping clip is the same as clip_state's.
   void amp_window(int clip, double t_end, Eigen::Ref<VectorXf> out) const {
     const Index d = observation_dim(skel_);
     require(out.size() == amp_window_dim(), "AMP window output has the wrong size", {{}, {}, "amp_window"});
-    BodyStates bs;
+    const MotionClip& c = this->clip(clip);
+    // per-thread pose buffers: a batch of windows allocates nothing once each thread has seen one
+    thread_local WindowScratch scratch;
+    BodyStates& bs = scratch.bodies;
+    const auto frame_time = [&](int k) { return t_end - (kAmpWindowFrames - 1 - k) * kAmpFrameDt; };
+    if (std::abs(c.fps * kAmpFrameDt - 1.0) > 1e-12) {  // other frame rates: every frame on its own
+      for (int k = 0; k < kAmpWindowFrames; ++k) {
+        body_states(clip, frame_time(k), bs);
+        compute_observation(skel_, bs, out.segment(k * d, d));
+      }
+      return;
+    }
+    // grid pose j at t_end − (kAmpWindowFrames − j)·Δ, j = 0 … kAmpWindowFrames + 1
+    auto& grid = scratch.grid;
+    for (int j = 0; j < kAmpWindowFrames + 2; ++j) clip_pose(c, frame_time(j - 1), grid[static_cast<std::size_t>(j)]);
+    KinematicState& s = scratch.state;
     for (int k = 0; k < kAmpWindowFrames; ++k) {
-      body_states(clip, t_end - (kAmpWindowFrames - 1 - k) * kAmpFrameDt, bs);
+      s = grid[static_cast<std::size_t>(k + 1)];
+      const auto [t1, t2] = central_difference_times(c, frame_time(k));
+      // (clip_pose clamps a non-looping clip's time itself, so the grid pose at t_k − h is the pose at t1)
+      velocities_from_poses(grid[static_cast<std::size_t>(k)], grid[static_cast<std::size_t>(k + 2)], t1, t2, s);
+      forward_kinematics(skel_, s, bs);
       compute_observation(skel_, bs, out.segment(k * d, d));
     }
   }
@@ -215,8 +259,15 @@ class MotionLibrary {
   /// are drawn in order from `rng`; the windows (5 poses, forward kinematics and features each)
   /// are then computed on `pool` when one is given — the same numbers for any pool size.
   MatrixXf sample_amp_windows(Rng& rng, int batch, ThreadPool* pool = nullptr) const {
-    MatrixXf out(amp_window_dim(), batch);
-    std::vector<ClipTime> times(static_cast<std::size_t>(std::max(batch, 0)));
+    MatrixXf out(amp_window_dim(), std::max(batch, 0));
+    sample_amp_windows(rng, out, pool);
+    return out;
+  }
+  /// The same into `out` (amp_window_dim() × batch), one window per column.
+  void sample_amp_windows(Rng& rng, Eigen::Ref<MatrixXf> out, ThreadPool* pool = nullptr) const {
+    require(out.rows() == amp_window_dim(), "AMP window batch has the wrong number of rows", {{}, {}, "amp_windows"});
+    const auto batch = static_cast<int>(out.cols());
+    std::vector<ClipTime> times(static_cast<std::size_t>(batch));
     for (auto& ct : times) ct = sample(rng, true, (kAmpWindowFrames - 1) * kAmpFrameDt);
     auto window = [&](std::size_t b) { amp_window(times[b].clip, times[b].time, out.col(static_cast<Index>(b))); };
     if (pool && batch > 1) {
@@ -224,7 +275,6 @@ class MotionLibrary {
     } else {
       for (std::size_t b = 0; b < times.size(); ++b) window(b);
     }
-    return out;
   }
 
   /// Visitation features of every frame of a clip: (3·bodies-in-parts × num_frames).
@@ -242,6 +292,12 @@ class MotionLibrary {
   }
 
  private:
+  struct WindowScratch {  ///< amp_window's buffers (one per thread)
+    std::array<KinematicState, kAmpWindowFrames + 2> grid;  ///< poses t_end − 5Δ … t_end + Δ
+    KinematicState state;
+    BodyStates bodies;
+  };
+
   Skeleton skel_;
   std::vector<MotionClip> clips_;
   std::vector<double> weights_;
