@@ -52,6 +52,31 @@ TEST(GradientPenalty, ParameterGradientMatchesFiniteDifferences) {
   }
 }
 
+// A pass over real and fake samples together (real first) penalises only its first `columns`
+// samples: the same P and ∂P/∂θ as a pass over the real samples alone.
+TEST(GradientPenalty, LeadingColumnsOfAJointPassEqualTheirOwnPass) {
+  using nn::Activation;
+  for (Activation a : {Activation::ReLU, Activation::Tanh}) {
+    Rng rng(5);
+    nn::Mlp<double> net(nn::MlpSpec{6, {5, 4}, 1, a}, rng);
+    const MatrixXd real = MatrixXd::NullaryExpr(6, 4, [&] { return rng.normal(); });
+    const MatrixXd fake = MatrixXd::NullaryExpr(6, 3, [&] { return rng.normal(); });
+    MatrixXd both(6, 7);
+    both << real, fake;
+    nn::TrainCache<double> c_real, c_both;
+    net.forward_train(real, c_real);
+    net.forward_train(both, c_both);
+    GradientPenaltyWorkspace<double> ws;
+    VectorXd g_real = VectorXd::Zero(net.num_params()), g_both = VectorXd::Zero(net.num_params());
+    const double p_real = gradient_penalty(net, c_real, 5, 3.0, g_real, ws);
+    const double p_both = gradient_penalty(net, c_both, 5, 3.0, g_both, ws, nullptr, 4);
+    EXPECT_NEAR(p_both, p_real, 1e-12) << nn::to_string(a);
+    EXPECT_LT((g_both - g_real).cwiseAbs().maxCoeff(), 1e-12) << nn::to_string(a);
+    EXPECT_GT(g_real.cwiseAbs().maxCoeff(), 1e-3);
+    EXPECT_THROW(gradient_penalty(net, c_both, 5, 3.0, g_both, ws, nullptr, 8), Error);
+  }
+}
+
 TEST(GradientPenalty, LinearNetworkClosedForm) {
   // d = wᵀx + b: ∂d/∂x = w, P = weight·‖w_S‖², ∂P/∂w_S = 2·weight·w_S, ∂P/∂b = 0.
   Rng rng(3);

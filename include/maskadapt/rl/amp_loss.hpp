@@ -76,15 +76,18 @@ AmpObjective amp_objective(DiscriminatorLoss kind, const Eigen::Ref<const RowVec
   return o;
 }
 
+/// The reward of one logit d (see amp_reward).
+template <class T>
+T amp_reward_of_logit(DiscriminatorLoss kind, double d) {
+  if (kind == DiscriminatorLoss::BCE) return static_cast<T>(-std::log(std::max(1.0 - sigmoid(d), 1e-4)));
+  return static_cast<T>(std::max(0.0, 1.0 - 0.25 * (d - 1) * (d - 1)));
+}
+
 /// Style reward of each logit (1 × B) → (1 × B).
 template <class T>
 RowVectorX<T> amp_reward(DiscriminatorLoss kind, const Eigen::Ref<const RowVectorX<T>>& logit) {
   RowVectorX<T> r(logit.cols());
-  for (Index i = 0; i < logit.cols(); ++i) {
-    const double d = logit(i);
-    if (kind == DiscriminatorLoss::BCE) r(i) = static_cast<T>(-std::log(std::max(1.0 - sigmoid(d), 1e-4)));
-    else r(i) = static_cast<T>(std::max(0.0, 1.0 - 0.25 * (d - 1) * (d - 1)));
-  }
+  for (Index i = 0; i < logit.cols(); ++i) r(i) = amp_reward_of_logit<T>(kind, static_cast<double>(logit(i)));
   return r;
 }
 

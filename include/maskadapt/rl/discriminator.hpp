@@ -93,12 +93,19 @@ class Discriminator {
   /// Network input [norm(features) ; cond] ((feature_dim + cond_dim) × B) into `out`.
   void make_input(const Eigen::Ref<const MatrixX<T>>& features, const Eigen::Ref<const MatrixX<T>>& cond,
                   MatrixX<T>& out) const {
+    out.resize(config_.feature_dim + config_.cond_dim, features.cols());
+    fill_input(features, cond, out);
+  }
+  /// make_input into columns of a larger matrix (`out` is ((feature_dim + cond_dim) × B)).
+  void fill_input(const Eigen::Ref<const MatrixX<T>>& features, const Eigen::Ref<const MatrixX<T>>& cond,
+                  Eigen::Ref<MatrixX<T>> out) const {
     require(features.rows() == config_.feature_dim, "expected " + std::to_string(config_.feature_dim) +
                                                         " feature rows, got " + std::to_string(features.rows()),
             {{}, {}, "Discriminator.features"});
     require(cond.rows() == config_.cond_dim && (config_.cond_dim == 0 || cond.cols() == features.cols()),
             "conditioning must be (" + std::to_string(config_.cond_dim) + " × batch)", {{}, {}, "Discriminator.cond"});
-    out.resize(config_.feature_dim + config_.cond_dim, features.cols());
+    require(out.rows() == config_.feature_dim + config_.cond_dim && out.cols() == features.cols(),
+            "input block has the wrong shape", {{}, {}, "Discriminator.input"});
     if (config_.normalize_inputs) normalizer_.normalize(features, out.topRows(config_.feature_dim));
     else out.topRows(config_.feature_dim) = features;
     if (config_.cond_dim > 0) out.bottomRows(config_.cond_dim) = cond;
@@ -120,6 +127,25 @@ class Discriminator {
     return r * static_cast<T>(config_.reward_scale);
   }
 
+  /// Buffers of the allocation-free reward (sized on first use, reused).
+  struct RewardWorkspace {
+    MatrixX<T> input;
+    RowVectorX<T> logits;
+    nn::InferenceWorkspace<T> net;
+  };
+  /// The style reward into `out` (1 × B, resized), allocating nothing once `ws` has seen the
+  /// batch size: the same numbers as reward().
+  void reward(const Eigen::Ref<const MatrixX<T>>& features, const Eigen::Ref<const MatrixX<T>>& cond,
+              Eigen::Ref<RowVectorX<T>, 0, Eigen::InnerStride<>> out, RewardWorkspace& ws) const {
+    require(out.cols() == features.cols(), "reward output must be (1 × batch)", {{}, {}, "Discriminator.reward"});
+    make_input(features, cond, ws.input);
+    ws.logits.resize(features.cols());
+    net_.forward(ws.input, ws.logits, ws.net);
+    const T scale = static_cast<T>(config_.reward_scale);
+    for (Index i = 0; i < out.cols(); ++i)
+      out(i) = amp_reward_of_logit<T>(config_.loss, static_cast<double>(ws.logits(i))) * scale;
+  }
+
   /// Adds real and agent windows to the input normaliser (call when new data arrives).
   void update_normalizer(const Eigen::Ref<const MatrixX<T>>& features) {
     if (config_.normalize_inputs) normalizer_.update(features);
@@ -130,21 +156,27 @@ class Discriminator {
   DiscriminatorStats update(const Eigen::Ref<const MatrixX<T>>& real, const Eigen::Ref<const MatrixX<T>>& real_cond,
                             const Eigen::Ref<const MatrixX<T>>& fake, const Eigen::Ref<const MatrixX<T>>& fake_cond) {
     DiscriminatorStats st;
-    make_input(real, real_cond, in_real_);
-    make_input(fake, fake_cond, in_fake_);
+    // real and fake samples go through the network as one batch [real | fake]: one forward and
+    // one backward pass (wider GEMMs, the weights packed once), the penalty on the real columns
+    const Index nr = real.cols(), nf = fake.cols();
+    in_both_.resize(config_.feature_dim + config_.cond_dim, nr + nf);
+    fill_input(real, real_cond, in_both_.leftCols(nr));
+    fill_input(fake, fake_cond, in_both_.rightCols(nf));
     net_.zero_grad();
     auto grad = net_.grads();
-    const MatrixX<T>& d_real = net_.forward_train(in_real_, cache_real_);
-    const MatrixX<T>& d_fake = net_.forward_train(in_fake_, cache_fake_);
-    const AmpObjective obj = amp_objective<T>(config_.loss, d_real, d_fake, g_real_, g_fake_);
-    net_.backward(cache_real_, g_real_, grad);
-    net_.backward(cache_fake_, g_fake_, grad);
+    const MatrixX<T>& d = net_.forward_train(in_both_, cache_);
+    const AmpObjective obj = amp_objective<T>(config_.loss, d.leftCols(nr), d.rightCols(nf), g_real_, g_fake_);
+    g_both_.resize(1, nr + nf);
+    g_both_.leftCols(nr) = g_real_;
+    g_both_.rightCols(nf) = g_fake_;
+    net_.backward(cache_, g_both_, grad);
     st.objective = obj.loss;
     st.real_mean = obj.real_mean;
     st.fake_mean = obj.fake_mean;
     st.accuracy = obj.accuracy;
     if (config_.grad_penalty > 0)
-      st.grad_penalty = gradient_penalty<T>(net_, cache_real_, config_.feature_dim, config_.grad_penalty, grad, gp_ws_);
+      st.grad_penalty =
+          gradient_penalty<T>(net_, cache_, config_.feature_dim, config_.grad_penalty, grad, gp_ws_, nullptr, nr);
     const Index L = net_.num_layers();
     if (config_.logit_reg > 0) {
       st.logit_reg = config_.logit_reg * static_cast<double>(net_.weight(L - 1).squaredNorm());
@@ -172,9 +204,9 @@ class Discriminator {
   nn::Mlp<T> net_;
   nn::RunningNormalizer<T> normalizer_;
   nn::Adam<T> opt_;
-  MatrixX<T> in_real_, in_fake_;
+  MatrixX<T> in_both_, g_both_;  ///< [real | fake] network input and ∂L_obj/∂d
   RowVectorX<T> g_real_, g_fake_;
-  nn::TrainCache<T> cache_real_, cache_fake_;
+  nn::TrainCache<T> cache_;
   GradientPenaltyWorkspace<T> gp_ws_;
 };
 

@@ -18,6 +18,8 @@
 ///     z̄_l = f''_l(z_l) ⊙ q_{l+1} ⊙ ḡ_l,   q̄_{l+1} = f'_l(z_l) ⊙ ḡ_l          (l < L−1)
 /// and then through the forward graph with the z̄_l injected at every layer:
 ///     δ_l = z̄_l + f'_l(z_l) ⊙ W_{l+1}ᵀ δ_{l+1},   ∂P/∂W_l += δ_l a_{l−1}ᵀ,   ∂P/∂b_l += Σ_j δ_l.
+/// With piecewise-linear activations (ReLU, identity) f'' = 0 almost everywhere, so every z̄_l and
+/// δ_l is exactly zero: that last pass adds nothing and is skipped (a third of the penalty's GEMMs).
 #include <maskadapt/core/error.hpp>
 #include <maskadapt/core/types.hpp>
 #include <maskadapt/nn/activation.hpp>
@@ -35,13 +37,20 @@ struct GradientPenaltyWorkspace {
   MatrixX<T> fp, delta, tmp;
 };
 
+/// True when f'' = 0 wherever it is defined (the penalty's z̄ terms vanish).
+inline bool has_zero_second_derivative(nn::Activation a) {
+  return a == nn::Activation::ReLU || a == nn::Activation::Identity;
+}
+
 /// Computes P for the forward pass recorded in `cache` (filled by net.forward_train on x) and
 /// ADDS ∂P/∂θ into `grad` (num_params, layout of net.params()). Returns P.
 /// Also returns, via `input_grad_sq` if non-null, the mean ‖S ∂d/∂x‖² (for logging).
+/// `columns` ≥ 0 penalises only the first `columns` samples of the cached batch (a pass that ran
+/// real and fake samples together, real first); −1: all of them.
 template <class T>
 double gradient_penalty(const nn::Mlp<T>& net, const nn::TrainCache<T>& cache, Index penalised_rows, double weight,
                         std::type_identity_t<Eigen::Ref<VectorX<T>>> grad, GradientPenaltyWorkspace<T>& w,
-                        double* input_grad_sq = nullptr) {
+                        double* input_grad_sq = nullptr, Index columns = -1) {
   const auto& spec = net.spec();
   require(net.outputs() == 1 && spec.output_activation == nn::Activation::Identity,
           "the gradient penalty needs a scalar logit with identity output activation", {{}, {}, "gradient_penalty"});
@@ -50,8 +59,13 @@ double gradient_penalty(const nn::Mlp<T>& net, const nn::TrainCache<T>& cache, I
   require(penalised_rows >= 0 && penalised_rows <= net.inputs(), "penalised_rows out of range",
           {{}, {}, "gradient_penalty.penalised_rows"});
   require(grad.size() == net.num_params(), "grad has the wrong size", {{}, {}, "gradient_penalty.grad"});
-  const Index L = net.num_layers(), B = cache.batch();
+  require(columns >= -1 && columns <= cache.batch() && columns != 0, "columns must be in [1, batch] or -1",
+          {{}, {}, "gradient_penalty.columns"});
+  const Index L = net.num_layers(), B = columns < 0 ? cache.batch() : columns;
   const auto act = [&](Index l) { return spec.layer_activation(l); };
+  const auto pre = [&](Index l) { return cache.pre[static_cast<std::size_t>(l)].leftCols(B); };
+  bool piecewise_linear = true;
+  for (Index l = 0; l + 1 < L; ++l) piecewise_linear = piecewise_linear && has_zero_second_derivative(act(l));
   const auto Lz = static_cast<std::size_t>(L);
   w.g.resize(Lz);
   w.q.resize(Lz);
@@ -64,8 +78,8 @@ double gradient_penalty(const nn::Mlp<T>& net, const nn::TrainCache<T>& cache, I
     const auto i = static_cast<std::size_t>(l);
     w.q[i].noalias() = net.weight(l).transpose() * w.g[i];
     if (l > 0) {
-      w.fp.resize(cache.pre[i - 1].rows(), B);
-      nn::activation_derivative<T>(act(l - 1), cache.pre[i - 1], w.fp);
+      w.fp.resize(pre(l - 1).rows(), B);
+      nn::activation_derivative<T>(act(l - 1), pre(l - 1), w.fp);
       w.g[i - 1] = w.fp.cwiseProduct(w.q[i]);
     }
   }
@@ -82,17 +96,20 @@ double gradient_penalty(const nn::Mlp<T>& net, const nn::TrainCache<T>& cache, I
     const auto i = static_cast<std::size_t>(l);
     Eigen::Map<MatrixX<T>> gW(grad.data() + net.weight_offset(l), spec.layer_outputs(l), spec.layer_inputs(l));
     gW.noalias() += w.g[i] * w.qbar[i].transpose();
-    w.tmp.noalias() = net.weight(l) * w.qbar[i];  // ḡ_l (out_l × B)
-    if (l < L - 1) {
-      w.fp.resize(cache.pre[i].rows(), B);
-      nn::activation_second_derivative<T>(act(l), cache.pre[i], w.fp);
-      w.zbar[i] = w.fp.cwiseProduct(w.q[i + 1]).cwiseProduct(w.tmp);
-      nn::activation_derivative<T>(act(l), cache.pre[i], w.fp);
-      w.qbar[i + 1] = w.fp.cwiseProduct(w.tmp);
-    } else {
-      w.zbar[i].setZero(spec.layer_outputs(l), B);  // f'' of the identity output is 0
+    if (l == L - 1) {
+      w.zbar[i].setZero(piecewise_linear ? 0 : spec.layer_outputs(l), piecewise_linear ? 0 : B);  // f'' of the identity output is 0
+      break;  // (ḡ of the output layer feeds nothing)
     }
+    w.tmp.noalias() = net.weight(l) * w.qbar[i];  // ḡ_l (out_l × B)
+    w.fp.resize(pre(l).rows(), B);
+    if (!piecewise_linear) {
+      nn::activation_second_derivative<T>(act(l), pre(l), w.fp);
+      w.zbar[i] = w.fp.cwiseProduct(w.q[i + 1]).cwiseProduct(w.tmp);
+    }
+    nn::activation_derivative<T>(act(l), pre(l), w.fp);
+    w.qbar[i + 1] = w.fp.cwiseProduct(w.tmp);
   }
+  if (piecewise_linear) return P;  // every z̄_l is 0, so is every δ_l
   // Reverse through the forward graph with z̄ injected at every layer.
   for (Index l = L - 1; l >= 0; --l) {
     const auto i = static_cast<std::size_t>(l);
@@ -100,13 +117,13 @@ double gradient_penalty(const nn::Mlp<T>& net, const nn::TrainCache<T>& cache, I
       w.delta = w.zbar[i];
     } else {
       w.tmp.noalias() = net.weight(l + 1).transpose() * w.delta;
-      w.fp.resize(cache.pre[i].rows(), B);
-      nn::activation_derivative<T>(act(l), cache.pre[i], w.fp);
+      w.fp.resize(pre(l).rows(), B);
+      nn::activation_derivative<T>(act(l), pre(l), w.fp);
       w.delta = w.zbar[i] + w.fp.cwiseProduct(w.tmp);
     }
     Eigen::Map<MatrixX<T>> gW(grad.data() + net.weight_offset(l), spec.layer_outputs(l), spec.layer_inputs(l));
     Eigen::Map<VectorX<T>> gb(grad.data() + net.bias_offset(l), spec.layer_outputs(l));
-    gW.noalias() += w.delta * cache.layer_input(l).transpose();
+    gW.noalias() += w.delta * cache.layer_input(l).leftCols(B).transpose();
     gb += w.delta.rowwise().sum();
   }
   return P;
