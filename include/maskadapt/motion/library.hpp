@@ -246,7 +246,10 @@ class MotionLibrary {
     for (int j = 0; j < kAmpWindowFrames + 2; ++j) clip_pose(c, frame_time(j - 1), grid[static_cast<std::size_t>(j)]);
     KinematicState& s = scratch.state;
     for (int k = 0; k < kAmpWindowFrames; ++k) {
-      s = grid[static_cast<std::size_t>(k + 1)];
+      const KinematicState& pose = grid[static_cast<std::size_t>(k + 1)];
+      s.root_pos = pose.root_pos;  // (the pose only: s keeps its velocity buffers)
+      s.root_rot = pose.root_rot;
+      s.q = pose.q;
       const auto [t1, t2] = central_difference_times(c, frame_time(k));
       // (clip_pose clamps a non-looping clip's time itself, so the grid pose at t_k − h is the pose at t1)
       velocities_from_poses(grid[static_cast<std::size_t>(k)], grid[static_cast<std::size_t>(k + 2)], t1, t2, s);

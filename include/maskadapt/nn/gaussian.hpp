@@ -96,12 +96,18 @@ void gaussian_log_prob_backward(const Eigen::Ref<const MatrixX<T>>& mean, const 
   }
 }
 
+/// Entropy of the distribution of column j of log_std: Σ_i logσ_i + d·½(1 + log 2π).
+template <class T>
+T gaussian_entropy_of_column(const Eigen::Ref<const MatrixX<T>>& log_std, Index j = 0) {
+  const T c = static_cast<T>(0.5 * (1.0 + std::log(2.0 * std::numbers::pi)));
+  return log_std.col(j).sum() + c * static_cast<T>(log_std.rows());
+}
+
 /// Entropy of each distribution: (1 × log_std.cols()) — a single value for a (d × 1) log_std.
 template <class T>
 RowVectorX<T> gaussian_entropy(const Eigen::Ref<const MatrixX<T>>& log_std) {
-  const T c = static_cast<T>(0.5 * (1.0 + std::log(2.0 * std::numbers::pi)));
   RowVectorX<T> h(log_std.cols());
-  for (Index j = 0; j < log_std.cols(); ++j) h[j] = log_std.col(j).sum() + c * static_cast<T>(log_std.rows());
+  for (Index j = 0; j < log_std.cols(); ++j) h[j] = gaussian_entropy_of_column<T>(log_std, j);
   return h;
 }
 

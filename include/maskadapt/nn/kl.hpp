@@ -111,7 +111,10 @@ T kl_shared_flat(const Eigen::Ref<const MatrixX<T>>& mean_p, const Eigen::Ref<co
   using Col = Eigen::Array<T, Eigen::Dynamic, 1>;
   const Index d = mean_p.rows(), B = mean_p.cols(), n = d * B;
   const Index tile_cols = std::max<Index>(1, 2048 / d), tile = tile_cols * d;
-  Col ivq_tiled(tile), acc = Col::Zero(tile);  // 1/σq² repeated per column; Σ over tiles of t
+  // 1/σq² repeated per column; Σ over tiles of t (per-thread buffers: no allocation once sized)
+  thread_local Col ivq_tiled, acc, t_sum;
+  ivq_tiled.resize(tile);
+  acc.setZero(tile);
   for (Index c = 0; c < tile_cols; ++c) ivq_tiled.segment(c * d, d) = inv_vq;
   const T* mp = mean_p.data();
   const T* mq = mean_q.data();
@@ -138,7 +141,7 @@ T kl_shared_flat(const Eigen::Ref<const MatrixX<T>>& mean_p, const Eigen::Ref<co
   const T w_sum = w * static_cast<T>(B);
   if (g.log_std_p) g.log_std_p->col(0).array() += w_sum * (r - T(1));
   if (g.log_std_q) {
-    Col t_sum = Col::Zero(d);  // Σ_j t_ij
+    t_sum.setZero(d);  // Σ_j t_ij
     for (Index c = 0; c < tile_cols; ++c) t_sum += acc.segment(c * d, d);
     g.log_std_q->col(0).array() += w_sum * (T(1) - r) - w * t_sum;
   }
@@ -165,7 +168,11 @@ void kl_kernel(const Eigen::Ref<const MatrixX<T>>& mean_p, const Eigen::Ref<cons
   const bool p_shared = log_std_p.cols() == 1, q_shared = log_std_q.cols() == 1, both_shared = p_shared && q_shared;
   const Index d = mean_p.rows(), B = mean_p.cols();
   // Per-dimension terms; recomputed per column only where a log-std is per-sample.
-  Col inv_vq(d), r(d), c(d);  // 1/σq², σp²/σq², logσq − logσp + ½r − ½
+  // 1/σq², σp²/σq², logσq − logσp + ½r − ½: per-thread buffers, no allocation once sized
+  thread_local Col inv_vq, r, c;
+  inv_vq.resize(d);
+  r.resize(d);
+  c.resize(d);
   auto set_terms = [&](Index j) {
     const auto lsp = log_std_p.col(p_shared ? 0 : j).array();
     const auto lsq = log_std_q.col(q_shared ? 0 : j).array();

@@ -8,6 +8,10 @@
 /// the data (up to rounding).
 ///
 ///     normalize(x) = clamp((x − mean) / sqrt(var + eps), −clip, clip)      var = M2 / count
+///
+/// The mean and 1/std in T that normalize() applies are recomputed when the statistics change,
+/// not per call, and update() reuses its buffers: neither allocates once it has seen the batch
+/// size (the training loop's update path allocates no matrix).
 #include <cmath>
 #include <string>
 
@@ -26,6 +30,7 @@ class RunningNormalizer {
   explicit RunningNormalizer(Index dim, double clip = 5.0, double eps = 1e-8)
       : mean_(VectorXd::Zero(dim)), m2_(VectorXd::Zero(dim)), clip_(clip), eps_(eps) {
     require(dim > 0, "dimension must be positive", {{}, std::nullopt, "RunningNormalizer.dim"});
+    refresh();
   }
 
   Index dim() const { return mean_.size(); }
@@ -45,11 +50,13 @@ class RunningNormalizer {
             {{}, std::nullopt, "RunningNormalizer::update.x"});
     if (x.cols() == 0) return;
     require_finite(x, "RunningNormalizer::update.x");
-    const MatrixXd xd = x.template cast<double>();
+    if (xd_.rows() != dim() || xd_.cols() < x.cols()) xd_.resize(dim(), x.cols());  // grows, never shrinks
+    auto xd = xd_.leftCols(x.cols());
+    xd = x.template cast<double>();
     const double n = static_cast<double>(x.cols());
-    const VectorXd bmean = xd.rowwise().mean();
-    const VectorXd bm2 = (xd.colwise() - bmean).array().square().rowwise().sum().matrix();
-    merge_stats(n, bmean, bm2);
+    bmean_ = xd.rowwise().mean();
+    bm2_ = (xd.colwise() - bmean_).array().square().rowwise().sum().matrix();
+    merge_stats(n, bmean_, bm2_);
   }
 
   /// Merges another worker's statistics (Chan et al.); equal to one pass over both data sets.
@@ -63,12 +70,10 @@ class RunningNormalizer {
   void normalize(const Eigen::Ref<const MatrixX<T>>& x, Eigen::Ref<MatrixX<T>> out) const {
     require(x.rows() == dim() && out.rows() == dim() && out.cols() == x.cols(), "shape mismatch",
             {{}, std::nullopt, "RunningNormalizer::normalize"});
-    const VectorX<T> m = mean_.cast<T>();
-    const VectorX<T> inv = stddev().cwiseInverse().template cast<T>();
     const T c = static_cast<T>(clip_);
     for (Index j = 0; j < x.cols(); ++j) {
       auto o = out.col(j);
-      o = (x.col(j) - m).cwiseProduct(inv);
+      o = (x.col(j) - mean_t_).cwiseProduct(inv_std_t_);
       if (clip_ > 0) o = o.cwiseMax(-c).cwiseMin(c);
     }
   }
@@ -97,20 +102,34 @@ class RunningNormalizer {
     count_ = count;
     mean_ = mean;
     m2_ = m2;
+    refresh();
   }
 
  private:
   void merge_stats(double nb, const VectorXd& mb, const VectorXd& m2b) {
     const double na = count_, n = na + nb;
-    const VectorXd delta = mb - mean_;
-    mean_ += delta * (nb / n);
-    m2_ += m2b + delta.cwiseProduct(delta) * (na * nb / n);
+    delta_ = mb - mean_;
+    mean_ += delta_ * (nb / n);
+    m2_ += m2b + delta_.cwiseProduct(delta_) * (na * nb / n);
     count_ = n;
+    refresh();
+  }
+  /// The T-precision mean and 1/std that normalize() applies (in place: sizes do not change).
+  void refresh() {
+    mean_t_ = mean_.cast<T>();
+    inv_std_t_.resize(dim());
+    for (Index i = 0; i < dim(); ++i) {
+      const double var = count_ > 0 ? m2_[i] / count_ : 1.0;
+      inv_std_t_[i] = static_cast<T>(1.0 / std::sqrt(var + eps_));
+    }
   }
 
   double count_ = 0;
   VectorXd mean_, m2_;
   double clip_ = 5.0, eps_ = 1e-8;
+  VectorX<T> mean_t_, inv_std_t_;  ///< (dim) mean and 1/sqrt(var + eps) in T, see refresh()
+  MatrixXd xd_;                    ///< update()'s batch in double (dim × ≥ B: the widest batch seen)
+  VectorXd bmean_, bm2_, delta_;   ///< update()'s batch statistics
 };
 
 }  // namespace maskadapt::nn

@@ -34,7 +34,7 @@ namespace maskadapt::rl {
 template <class T>
 struct GradientPenaltyWorkspace {
   std::vector<MatrixX<T>> g, q, qbar, zbar;  // per layer
-  MatrixX<T> fp, delta, tmp;
+  std::vector<MatrixX<T>> fp, fpp, gbar, delta;  // per layer: f'(z_l), f''(z_l), ḡ_l, δ_l (each keeps its shape)
 };
 
 /// True when f'' = 0 wherever it is defined (the penalty's z̄ terms vanish).
@@ -67,20 +67,17 @@ double gradient_penalty(const nn::Mlp<T>& net, const nn::TrainCache<T>& cache, I
   bool piecewise_linear = true;
   for (Index l = 0; l + 1 < L; ++l) piecewise_linear = piecewise_linear && has_zero_second_derivative(act(l));
   const auto Lz = static_cast<std::size_t>(L);
-  w.g.resize(Lz);
-  w.q.resize(Lz);
-  w.qbar.resize(Lz);
-  w.zbar.resize(Lz);
+  for (auto* v : {&w.g, &w.q, &w.qbar, &w.zbar, &w.fp, &w.fpp, &w.gbar, &w.delta}) v->resize(Lz);
 
-  // Input gradient: g_{L−1} = 1; q_l = W_lᵀ g_l; g_{l−1} = f'(z_{l−1}) ⊙ q_l.
+  // Input gradient: g_{L−1} = 1; q_l = W_lᵀ g_l; g_{l−1} = f'(z_{l−1}) ⊙ q_l (f'_l kept in fp[l]).
   w.g[Lz - 1].setOnes(1, B);
   for (Index l = L - 1; l >= 0; --l) {
     const auto i = static_cast<std::size_t>(l);
     w.q[i].noalias() = net.weight(l).transpose() * w.g[i];
     if (l > 0) {
-      w.fp.resize(pre(l - 1).rows(), B);
-      nn::activation_derivative<T>(act(l - 1), pre(l - 1), w.fp);
-      w.g[i - 1] = w.fp.cwiseProduct(w.q[i]);
+      w.fp[i - 1].resize(pre(l - 1).rows(), B);
+      nn::activation_derivative<T>(act(l - 1), pre(l - 1), w.fp[i - 1]);
+      w.g[i - 1] = w.fp[i - 1].cwiseProduct(w.q[i]);
     }
   }
   const auto u = w.q[0].topRows(penalised_rows);  // S ∂d/∂x (penalised_rows × B)
@@ -97,34 +94,31 @@ double gradient_penalty(const nn::Mlp<T>& net, const nn::TrainCache<T>& cache, I
     Eigen::Map<MatrixX<T>> gW(grad.data() + net.weight_offset(l), spec.layer_outputs(l), spec.layer_inputs(l));
     gW.noalias() += w.g[i] * w.qbar[i].transpose();
     if (l == L - 1) {
-      w.zbar[i].setZero(piecewise_linear ? 0 : spec.layer_outputs(l), piecewise_linear ? 0 : B);  // f'' of the identity output is 0
+      if (!piecewise_linear) w.zbar[i].setZero(spec.layer_outputs(l), B);  // f'' of the identity output is 0
       break;  // (ḡ of the output layer feeds nothing)
     }
-    w.tmp.noalias() = net.weight(l) * w.qbar[i];  // ḡ_l (out_l × B)
-    w.fp.resize(pre(l).rows(), B);
+    w.gbar[i].noalias() = net.weight(l) * w.qbar[i];  // ḡ_l (out_l × B)
     if (!piecewise_linear) {
-      nn::activation_second_derivative<T>(act(l), pre(l), w.fp);
-      w.zbar[i] = w.fp.cwiseProduct(w.q[i + 1]).cwiseProduct(w.tmp);
+      w.fpp[i].resize(pre(l).rows(), B);
+      nn::activation_second_derivative<T>(act(l), pre(l), w.fpp[i]);
+      w.zbar[i] = w.fpp[i].cwiseProduct(w.q[i + 1]).cwiseProduct(w.gbar[i]);
     }
-    nn::activation_derivative<T>(act(l), pre(l), w.fp);
-    w.qbar[i + 1] = w.fp.cwiseProduct(w.tmp);
+    w.qbar[i + 1] = w.fp[i].cwiseProduct(w.gbar[i]);
   }
   if (piecewise_linear) return P;  // every z̄_l is 0, so is every δ_l
   // Reverse through the forward graph with z̄ injected at every layer.
   for (Index l = L - 1; l >= 0; --l) {
     const auto i = static_cast<std::size_t>(l);
     if (l == L - 1) {
-      w.delta = w.zbar[i];
+      w.delta[i] = w.zbar[i];
     } else {
-      w.tmp.noalias() = net.weight(l + 1).transpose() * w.delta;
-      w.fp.resize(pre(l).rows(), B);
-      nn::activation_derivative<T>(act(l), pre(l), w.fp);
-      w.delta = w.zbar[i] + w.fp.cwiseProduct(w.tmp);
+      w.gbar[i].noalias() = net.weight(l + 1).transpose() * w.delta[i + 1];  // (reused as scratch)
+      w.delta[i] = w.zbar[i] + w.fp[i].cwiseProduct(w.gbar[i]);
     }
     Eigen::Map<MatrixX<T>> gW(grad.data() + net.weight_offset(l), spec.layer_outputs(l), spec.layer_inputs(l));
     Eigen::Map<VectorX<T>> gb(grad.data() + net.bias_offset(l), spec.layer_outputs(l));
-    gW.noalias() += w.delta * cache.layer_input(l).leftCols(B).transpose();
-    gb += w.delta.rowwise().sum();
+    gW.noalias() += w.delta[i] * cache.layer_input(l).leftCols(B).transpose();
+    gb += w.delta[i].rowwise().sum();
   }
   return P;
 }

@@ -140,6 +140,20 @@ class BaseTrainer {
     if (cfg_.mask.enabled) task_.set_mask_prob(mask_prob_at(cfg_.mask, samples_));
     st.extra["mask_prob"] = cfg_.mask.enabled ? task_.config().mask_prob : 0.0;
     collect(st);
+    update_from_rollout(st);
+    ++iteration_;
+    samples_ += buf_.size();
+    finish_iteration_stats(st, iteration_, samples_, buf_.size(), total.seconds(), task_.stats());
+    train_seconds_ += st.time_total;
+    return st;
+  }
+
+  /// Steps 2–5 of an iteration on the rollout collected last (rewards, GAE, PPO + MI,
+  /// discriminator, input statistics), adding their times to `st`. iterate() calls it after
+  /// the collection; benchmarks call it alone, to time the update by itself
+  /// (benchmarks/rl/bench_update.cpp). Does not advance the iteration counters.
+  void update_from_rollout(IterationStats& st) {
+    nn::ScopedPool parallel_networks(task_.pool());
     Stopwatch upd;
     Stopwatch disc_rewards;
     compute_rewards(st);
@@ -158,11 +172,6 @@ class BaseTrainer {
       policy_.ac.update_normalizers(unmasked_inputs_, buf_.obs);
     }
     st.time_update += upd.seconds();
-    ++iteration_;
-    samples_ += buf_.size();
-    finish_iteration_stats(st, iteration_, samples_, buf_.size(), total.seconds(), task_.stats());
-    train_seconds_ += st.time_total;
-    return st;
   }
 
   // ---- checkpoints ------------------------------------------------------------------------
@@ -312,23 +321,25 @@ class BaseTrainer {
 
   // ---- 2. discriminator rewards -----------------------------------------------------------
   void compute_rewards(IterationStats& st) {
-    const RowVectorXf r = policy_.disc.reward(buf_.amp_windows);  // (1 × N·H), includes reward_scale
-    buf_.rewards.row(0) = r;
-    st.disc_reward = r.cast<double>().mean();
+    const MatrixXf no_cond;  // (empty: allocates nothing)
+    auto r = buf_.rewards.row(0);  // (1 × N·H), includes reward_scale
+    policy_.disc.reward(buf_.amp_windows, no_cond, r, reward_ws_);
+    st.disc_reward = r.template cast<double>().mean();
   }
 
   // ---- 4. PPO + MI --------------------------------------------------------------------------
   void update_policy(IterationStats& st) {
     auto& actor = policy_.ac.actor;
     auto& critic = policy_.ac.critic;
-    MatrixXf adv = buf_.advantages;
+    // minibatch scratch: members, so that an update allocates no matrix once sized
+    auto& [adv, pin, act, obs, full, norm_in, norm_obs, dmu, dls, dv, target, vold, mu_target, lp_old, a_mb, lp_new,
+           dlogp] = mb_;
+    adv = buf_.advantages;
     rl::normalize_rows(adv);
     const Index n = buf_.size();
     const Index nmb = std::max<Index>(1, std::min<Index>(n, n / std::max<Index>(1, cfg_.ppo.minibatch_size)));
     double sum_pl = 0, sum_vl = 0, sum_kl = 0, sum_mi = 0, sum_cf = 0, sum_gn = 0;
     int count = 0;
-    MatrixXf pin, act, obs, full, norm_in, norm_obs, dmu, dv, target, vold, mu_target;
-    RowVectorXf lp_old, a_mb, lp_new, dlogp;
     // No target while no episode is masked (the warm-up): the warm-up stays bit-identical to plain
     // AMP in every gradient mode, and the EMA target starts from the policy where masking starts.
     const bool fixed_target =
@@ -351,12 +362,11 @@ class BaseTrainer {
       diag_masked_mu_.resize(actor.action_dim(), n);
       actor.mean(buf_.policy_input, diag_masked_mu_, actor_ws_, scratch_);
       st.extra["kl_masked_unmasked"] = static_cast<double>(
-          nn::kl_diag_gaussian<float>(ema_target ? diag_full_mu_ : frozen_mu_, actor.log_std_col(), diag_masked_mu_,
-                                      actor.log_std_col())
-              .mean());
+          nn::kl_diag_gaussian_mean<float>(ema_target ? diag_full_mu_ : frozen_mu_, actor.log_std_col(), diag_masked_mu_,
+                                           actor.log_std_col(), {}));
       if (ema_target)  // how far the unmasked policy is from its target: the drift the anchor holds back
         st.extra["kl_target_unmasked"] = static_cast<double>(
-            nn::kl_diag_gaussian<float>(frozen_mu_, actor.log_std_col(), diag_full_mu_, actor.log_std_col()).mean());
+            nn::kl_diag_gaussian_mean<float>(frozen_mu_, actor.log_std_col(), diag_full_mu_, actor.log_std_col(), {}));
     }
     for (int epoch = 0; epoch < cfg_.ppo.epochs; ++epoch) {
       for (const auto& idx : rl::minibatch_indices(n, nmb, rng_)) {
@@ -380,7 +390,6 @@ class BaseTrainer {
         nn::gaussian_log_prob<float>(mu, actor.log_std_col(), act, lp_new);
         const auto sur = rl::clipped_surrogate<float>(lp_new, lp_old, a_mb, cfg_.ppo.clip, dlogp);
         dmu.setZero(mu.rows(), B);
-        MatrixXf dls;
         nn::gaussian_log_prob_backward<float>(mu, actor.log_std_col(), act, dlogp, &dmu,
                                               actor.learn_log_std ? &dls : nullptr);
         // action-bound penalty on the PD targets beyond ±π rad (target = offset + scale ⊙ μ)
@@ -428,7 +437,7 @@ class BaseTrainer {
     st.clip_frac = sum_cf / count;
     st.mi_kl = sum_mi / count;
     st.grad_norm = sum_gn / count;
-    st.entropy = nn::gaussian_entropy<float>(actor.log_std_col())(0);
+    st.entropy = nn::gaussian_entropy_of_column<float>(actor.log_std_col());
     st.actor_lr = actor_opt_.config().lr;
     if (ema_target) adapt::update_ema_target(mi_target_net_, actor.mean_net, cfg_.mask.mi_target_tau);
   }
@@ -441,8 +450,10 @@ class BaseTrainer {
     auto& disc = policy_.disc;
     const Index n = buf_.size(), B = cfg_.disc.batch_size, half = B / 2, D = task_.amp_dim();
     const Index steps = std::max<Index>(1, cfg_.disc.epochs * n / B);
-    MatrixXf real(D, B), fake(D, B), rep;
-    const MatrixXf no_cond;
+    MatrixXf &real = disc_real_, &fake = disc_fake_, &rep = disc_replayed_;
+    real.resize(D, B);
+    fake.resize(D, B);
+    const MatrixXf no_cond;  // (empty: allocates nothing)
     double sum_real = 0, sum_fake = 0, sum_loss = 0, sum_gp = 0;
     for (Index s = 0; s < steps; ++s) {
       real_(rng_, real);
@@ -494,6 +505,12 @@ class BaseTrainer {
   nn::TrainCache<float> actor_cache_, critic_cache_;
   adapt::MiWorkspace<float> mi_ws_;
   MatrixXf actions_, mu_, values_, scratch_;
+  struct MinibatchScratch {  ///< update_policy's buffers (sized on the first update, then reused)
+    MatrixXf adv, pin, act, obs, full, norm_in, norm_obs, dmu, dls, dv, target, vold, mu_target;
+    RowVectorXf lp_old, a_mb, lp_new, dlogp;
+  } mb_;
+  MatrixXf disc_real_, disc_fake_, disc_replayed_;  ///< update_discriminator's batches
+  rl::Discriminator<float>::RewardWorkspace reward_ws_;
   MatrixXf bound_targets_;  ///< (action_dim × minibatch) PD targets of μ, for the bound penalty
   RowVectorXf logp_;
 };

@@ -64,7 +64,7 @@ inline tasks::ResetSampler library_reset_sampler(std::shared_ptr<const MotionLib
 /// `pool` when one is given (bit-identical for any pool size; the trainer's env pool is idle then).
 inline RealWindowSampler library_window_sampler(std::shared_ptr<const MotionLibrary> lib, ThreadPool* pool = nullptr) {
   return [lib, pool](Rng& rng, Eigen::Ref<MatrixXf> out) {
-    out = lib->sample_amp_windows(rng, static_cast<int>(out.cols()), pool);
+    lib->sample_amp_windows(rng, out, pool);
   };
 }
 
