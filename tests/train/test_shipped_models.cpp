@@ -88,10 +88,13 @@ TEST(ShippedModels, Table1BasesLoadAsTheVariantsTheyClaimToBe) {
     double mask_prob;
     double lambda_mi;
     const char* note;
+    std::uint64_t seed;
   };
-  for (const Expected& e : {Expected{"amp_s1.bin", 0.0, 0.0, "Table 1 AMP base"},
-                            Expected{"mask_no_mi_s1.bin", 0.8, 0.0, "Table 1 masking without MI"},
-                            Expected{"mask_mi03_s1.bin", 0.8, 0.3, "Table 1 masking with MI"}}) {
+  for (const Expected& e : {Expected{"amp_s1.bin", 0.0, 0.0, "Table 1 AMP base", 1},
+                            Expected{"mask_no_mi_s1.bin", 0.8, 0.0, "Table 1 masking without MI", 1},
+                            Expected{"mask_mi03_s1.bin", 0.8, 0.3, "Table 1 masking with MI", 1},
+                            Expected{"amp_s2.bin", 0.0, 0.0, "Table 1 AMP base, seed 2", 2},
+                            Expected{"mask_no_mi_s2.bin", 0.8, 0.0, "Table 1 masking without MI, seed 2", 2}}) {
     const std::string path = std::string(MASKADAPT_SOURCE_DIR "/models/table1/") + e.file;
     const Checkpoint c = load_checkpoint(path);
     ASSERT_TRUE(is_policy_export(c)) << path;
@@ -104,5 +107,6 @@ TEST(ShippedModels, Table1BasesLoadAsTheVariantsTheyClaimToBe) {
     EXPECT_EQ(base.config.mask.prob, e.mask_prob) << path;
     EXPECT_EQ(base.config.mask.lambda_mi, e.lambda_mi) << path;
     EXPECT_EQ(base.config.mask.hidden_value, "mean") << path;
+    EXPECT_EQ(base.config.run.seed, e.seed) << path;
   }
 }
