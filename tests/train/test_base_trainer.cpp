@@ -21,17 +21,9 @@ using namespace maskadapt;
 using namespace maskadapt::train;
 using maskadapt::testing::expect_bit_identical;
 using maskadapt::testing::TinyWalkerSim;
+using maskadapt::testing::upright;
 
 namespace {
-
-tasks::ResetSampler upright(const Skeleton& skel) {
-  return [&skel](Rng& rng) {
-    tasks::ResetSample r;
-    r.pose = KinematicState::zero(skel);
-    for (Index i = 0; i < r.pose.q.size(); ++i) r.pose.q[i] = rng.uniform(-0.1, 0.1);
-    return r;
-  };
-}
 
 // "Motion library" of the tiny walker: a sinusoidal swing of the legs, 5 frames at 30 Hz.
 RealWindowSampler swing_windows(const Skeleton& skel) {

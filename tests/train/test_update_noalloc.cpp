@@ -21,6 +21,7 @@
 using namespace maskadapt;
 using namespace maskadapt::train;
 using maskadapt::testing::TinyWalkerSim;
+using maskadapt::testing::upright;
 
 namespace {
 
@@ -36,15 +37,6 @@ std::string without_matrix_allocations(F&& f) {
   }
   Eigen::internal::set_is_malloc_allowed(true);
   return failure;
-}
-
-tasks::ResetSampler upright(const Skeleton& skel) {
-  return [&skel](Rng& rng) {
-    tasks::ResetSample r;
-    r.pose = KinematicState::zero(skel);
-    for (Index i = 0; i < r.pose.q.size(); ++i) r.pose.q[i] = rng.uniform(-0.1, 0.1);
-    return r;
-  };
 }
 
 /// Real windows drawn from a fixed bank of random windows (allocates nothing: the sampler's own

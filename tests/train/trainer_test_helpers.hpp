@@ -2,6 +2,7 @@
 // Shared by the stage-1 trainer tests: the tiny-walker training config and the section-by-section
 // bit-identity check of two checkpoints.
 #include <maskadapt/core/checkpoint.hpp>
+#include <maskadapt/tasks/imitation.hpp>
 #include <maskadapt/train/config.hpp>
 
 #include <gtest/gtest.h>
@@ -9,6 +10,16 @@
 #include <cstring>
 
 namespace maskadapt::testing {
+
+/// Resets to the zero pose with every joint angle drawn uniformly in ±0.1 rad.
+inline tasks::ResetSampler upright(const Skeleton& skel) {
+  return [&skel](Rng& rng) {
+    tasks::ResetSample r;
+    r.pose = KinematicState::zero(skel);
+    for (Index i = 0; i < r.pose.q.size(); ++i) r.pose.q[i] = rng.uniform(-0.1, 0.1);
+    return r;
+  };
+}
 
 /// A stage-1 config small enough for the tiny analytic walker (tiny_sim.hpp): 4 envs × horizon 8
 /// (32 samples per iteration), 16-unit networks, learning rates large enough to move in a few
