@@ -151,6 +151,7 @@ TEST(ResidualTrainer, BaseStaysFrozenWhileTheResidualLearns) {
       EXPECT_EQ(st.iteration, i);
       for (double v : {st.disc_reward, st.disc_real, st.disc_fake, st.policy_loss, st.value_loss, st.approx_kl})
         EXPECT_TRUE(std::isfinite(v)) << method;
+      EXPECT_GT(st.disc_grad_penalty, 0.0) << method;  // the penalty is applied, and logged
     }
     EXPECT_EQ(tr.num_objectives(), method == "ours" ? 1 : 2);
     EXPECT_TRUE(same_bits(tr.policy().base().mean_net.params(), base.mean_net.params())) << method;

@@ -820,7 +820,7 @@ class ResidualTrainer {
   void update_discriminators(IterationStats& st) {
     const Index n = buf_.size(), B = cfg_.rl.disc.batch_size, half = B / 2;
     const Index steps = std::max<Index>(1, cfg_.rl.disc.epochs * n / B);
-    double sum_real = 0, sum_fake = 0, sum_loss = 0;
+    double sum_real = 0, sum_fake = 0, sum_loss = 0, sum_gp = 0;
     int count = 0;
     MatrixXf real_w, real_c, real_f, agent_w, feat, cond, fake, neg_w, neg_c, neg_f, stacked, rep;
     std::vector<PartMask> ms(static_cast<std::size_t>(B - half));
@@ -865,6 +865,7 @@ class ResidualTrainer {
         sum_real += ds.real_mean;
         sum_fake += ds.fake_mean;
         sum_loss += ds.loss;
+        sum_gp += ds.grad_penalty;
         ++count;
       }
     }
@@ -872,6 +873,7 @@ class ResidualTrainer {
       st.disc_real = sum_real / count;
       st.disc_fake = sum_fake / count;
       st.disc_loss = sum_loss / count;
+      st.disc_grad_penalty = sum_gp / count;
     }
   }
 
