@@ -123,8 +123,10 @@ class Discriminator {
 
   /// Style reward (1 × B), see file comment.
   RowVectorX<T> reward(const Eigen::Ref<const MatrixX<T>>& features, const Eigen::Ref<const MatrixX<T>>& cond = MatrixX<T>()) const {
-    RowVectorX<T> r = amp_reward<T>(config_.loss, logits(features, cond));
-    return r * static_cast<T>(config_.reward_scale);
+    RowVectorX<T> r(features.cols());
+    RewardWorkspace ws;
+    reward(features, cond, r, ws);
+    return r;
   }
 
   /// Buffers of the allocation-free reward (sized on first use, reused).
