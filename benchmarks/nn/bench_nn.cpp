@@ -4,6 +4,8 @@
 //   ./maskadapt_bench_nn --benchmark_repetitions=3 --benchmark_report_aggregates_only=true
 #include <benchmark/benchmark.h>
 
+#include "../bench_main.hpp"
+
 #include <immintrin.h>
 #include <malloc.h>
 
@@ -288,12 +290,5 @@ int main(int argc, char** argv) {
   // whatever the order. maskadapt's kernels allocate nothing per iteration either way.
   mallopt(M_MMAP_THRESHOLD, 256 << 20);
   mallopt(M_TRIM_THRESHOLD, 512 << 20);
-  benchmark::Initialize(&argc, argv);
-  if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
-  // Every product timing depends on the kernel family OpenBLAS loaded (OPENBLAS_CORETYPE picks
-  // another): record it in the report's context next to the CPU.
-  benchmark::AddCustomContext("openblas_core", maskadapt::blas_core_name());
-  benchmark::RunSpecifiedBenchmarks();
-  benchmark::Shutdown();
-  return 0;
+  return maskadapt::bench::run_benchmarks(argc, argv);
 }

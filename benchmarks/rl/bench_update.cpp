@@ -16,6 +16,8 @@
 //   ./maskadapt_bench_update --benchmark_repetitions=3 --benchmark_report_aggregates_only=true
 #include <benchmark/benchmark.h>
 
+#include "../bench_main.hpp"
+
 #include <memory>
 #include <vector>
 
@@ -200,10 +202,5 @@ BENCHMARK(BM_RealWindows)->Arg(0)->Arg(1)->ArgNames({"shared_poses"})->Unit(benc
 
 int main(int argc, char** argv) {
   maskadapt::limit_blas_threads(1);  // as the maskadapt command does: the pool parallelises, not OpenBLAS
-  benchmark::Initialize(&argc, argv);
-  if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
-  benchmark::AddCustomContext("openblas_core", maskadapt::blas_core_name());
-  benchmark::RunSpecifiedBenchmarks();
-  benchmark::Shutdown();
-  return 0;
+  return maskadapt::bench::run_benchmarks(argc, argv);
 }

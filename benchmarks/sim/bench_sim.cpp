@@ -17,6 +17,8 @@
 
 #include <benchmark/benchmark.h>
 
+#include "../bench_main.hpp"
+
 #include <functional>
 #include <string>
 #include <utility>
@@ -183,10 +185,5 @@ BENCHMARK(BM_FeaturesOnly)->Arg(64)->Unit(benchmark::kMicrosecond)->UseRealTime(
 
 int main(int argc, char** argv) {
   register_option_benchmarks();
-  benchmark::Initialize(&argc, argv);
-  if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
-  benchmark::AddCustomContext("openblas_core", maskadapt::blas_core_name());  // MuJoCo itself uses no BLAS
-  benchmark::RunSpecifiedBenchmarks();
-  benchmark::Shutdown();
-  return 0;
+  return maskadapt::bench::run_benchmarks(argc, argv);  // (MuJoCo itself uses no BLAS)
 }
