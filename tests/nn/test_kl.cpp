@@ -9,7 +9,7 @@ using namespace maskadapt;
 using namespace maskadapt::nn;
 
 namespace {
-Eigen::MatrixXd rnd(Rng& rng, Index r, Index c, double s = 1.0) {
+Eigen::MatrixXd kl_random(Rng& rng, Index r, Index c, double s = 1.0) {
   Eigen::MatrixXd m(r, c);
   for (Index i = 0; i < m.size(); ++i) m.data()[i] = s * rng.normal();
   return m;
@@ -30,14 +30,14 @@ TEST(Kl, KnownValue) {
 
 TEST(Kl, ZeroForIdenticalDistributionsWithZeroGradient) {
   Rng rng(3);
-  const Eigen::MatrixXd m = rnd(rng, 5, 7), ls = rnd(rng, 5, 7, 0.5);
+  const Eigen::MatrixXd m = kl_random(rng, 5, 7), ls = kl_random(rng, 5, 7, 0.5);
   const RowVectorX<double> kl = kl_diag_gaussian<double>(m, ls, m, ls);
   EXPECT_EQ(kl.cwiseAbs().maxCoeff(), 0.0);
   Eigen::MatrixXd a, b, c, d;
   kl_diag_gaussian_mean<double>(m, ls, m, ls, {&a, &b, &c, &d});
   EXPECT_EQ(a.cwiseAbs().maxCoeff() + b.cwiseAbs().maxCoeff() + c.cwiseAbs().maxCoeff() + d.cwiseAbs().maxCoeff(), 0.0);
   // And strictly positive otherwise.
-  const Eigen::MatrixXd m2 = m + rnd(rng, 5, 7, 0.1);
+  const Eigen::MatrixXd m2 = m + kl_random(rng, 5, 7, 0.1);
   EXPECT_GT(kl_diag_gaussian<double>(m, ls, m2, ls).minCoeff(), 0.0);
 }
 
@@ -47,9 +47,9 @@ TEST(Kl, GradientsWrtBothSidesMatchFiniteDifferences) {
     const Index d = 1 + static_cast<Index>(rng.uniform_int(6)), B = 1 + static_cast<Index>(rng.uniform_int(5));
     for (int shapes = 0; shapes < 4; ++shapes) {
       const bool p_shared = shapes & 1, q_shared = shapes & 2;
-      Eigen::MatrixXd mp = rnd(rng, d, B), mq = rnd(rng, d, B);
-      Eigen::MatrixXd lp = rnd(rng, d, p_shared ? 1 : B, 0.5), lq = rnd(rng, d, q_shared ? 1 : B, 0.5);
-      const RowVectorX<double> w = rnd(rng, 1, B);
+      Eigen::MatrixXd mp = kl_random(rng, d, B), mq = kl_random(rng, d, B);
+      Eigen::MatrixXd lp = kl_random(rng, d, p_shared ? 1 : B, 0.5), lq = kl_random(rng, d, q_shared ? 1 : B, 0.5);
+      const RowVectorX<double> w = kl_random(rng, 1, B);
       auto loss = [&] { return kl_diag_gaussian<double>(mp, lp, mq, lq).dot(w); };
       Eigen::MatrixXd gmp, glp, gmq, glq;
       kl_diag_gaussian_backward<double>(mp, lp, mq, lq, w, {&gmp, &glp, &gmq, &glq});
@@ -73,7 +73,7 @@ TEST(Kl, GradientsWrtBothSidesMatchFiniteDifferences) {
 
 TEST(Kl, StopGradientReallyStops) {
   Rng rng(9);
-  const Eigen::MatrixXd mp = rnd(rng, 4, 3), mq = rnd(rng, 4, 3), lp = rnd(rng, 4, 1, 0.4), lq = rnd(rng, 4, 1, 0.4);
+  const Eigen::MatrixXd mp = kl_random(rng, 4, 3), mq = kl_random(rng, 4, 3), lp = kl_random(rng, 4, 1, 0.4), lq = kl_random(rng, 4, 1, 0.4);
   Eigen::MatrixXd gmp = Eigen::MatrixXd::Constant(4, 3, 7.0), glp = Eigen::MatrixXd::Constant(4, 1, 7.0);
   Eigen::MatrixXd gmq, glq, ref_mq, ref_lq;
   kl_diag_gaussian_mean<double>(mp, lp, mq, lq, {&gmp, &glp, &gmq, &glq}, {true, 1.0});

@@ -8,7 +8,7 @@ using namespace maskadapt;
 using namespace maskadapt::nn;
 
 namespace {
-const Activation kAll[] = {Activation::Identity, Activation::ReLU, Activation::ELU, Activation::SiLU, Activation::Tanh};
+const Activation kMlpActivations[] = {Activation::Identity, Activation::ReLU, Activation::ELU, Activation::SiLU, Activation::Tanh};
 
 Eigen::MatrixXd random_matrix(Rng& rng, Index r, Index c) {
   Eigen::MatrixXd m(r, c);
@@ -64,7 +64,7 @@ TEST(Mlp, PytorchDefaultInitBoundsAndDeterminism) {
 
 TEST(Mlp, InferenceEqualsTrainingForward) {
   Rng rng(5);
-  for (Activation a : kAll) {
+  for (Activation a : kMlpActivations) {
     Mlp<float> net(MlpSpec{7, {9, 6}, 3, a, Activation::Tanh}, rng);
     const Eigen::MatrixXf x = random_matrix(rng, 7, 13).cast<float>();
     InferenceWorkspace<float> ws;
@@ -85,8 +85,8 @@ TEST(Mlp, InferenceEqualsTrainingForward) {
 TEST(Mlp, BackwardMatchesFiniteDifferences) {
   for (int seed = 0; seed < 4; ++seed) {
     Rng rng(100 + seed);
-    for (Activation hidden_act : kAll) {
-      for (Activation out_act : kAll) {
+    for (Activation hidden_act : kMlpActivations) {
+      for (Activation out_act : kMlpActivations) {
         MlpSpec spec;
         spec.inputs = 1 + static_cast<Index>(rng.uniform_int(5));
         const int layers = static_cast<int>(rng.uniform_int(3));  // 0..2 hidden layers

@@ -25,7 +25,7 @@ ResetSampler upright_sampler(const Skeleton& skel) {
   };
 }
 
-ImitationTaskConfig tiny_config() {
+ImitationTaskConfig tiny_task_config() {
   ImitationTaskConfig c;
   c.episode_seconds = 1.0;  // 30 steps
   c.fall = FallCriteria::for_skeleton(tiny_walker_skeleton(), {"l_leg", "r_leg"}, "head", 0.8);
@@ -50,7 +50,7 @@ MatrixXf balance_actions(const TinyWalkerSim& sim) {
 
 TEST(ImitationTask, ShapesAndMaskedPolicyInput) {
   TinyWalkerSim sim(6);
-  ImitationTask task(sim, upright_sampler(sim.skeleton()), tiny_config(), 7);
+  ImitationTask task(sim, upright_sampler(sim.skeleton()), tiny_task_config(), 7);
   const Index d = observation_dim(sim.skeleton());
   EXPECT_EQ(task.obs_dim(), d);
   EXPECT_EQ(task.policy_input_dim(), d + 5);
@@ -78,7 +78,7 @@ TEST(ImitationTask, ShapesAndMaskedPolicyInput) {
 
 TEST(ImitationTask, MaskingOffGivesTheNullMaskAndFixedMaskIsKept) {
   TinyWalkerSim sim(4);
-  auto cfg = tiny_config();
+  auto cfg = tiny_task_config();
   cfg.masking = false;
   ImitationTask task(sim, upright_sampler(sim.skeleton()), cfg, 1);
   for (int k = 0; k < 10; ++k) {
@@ -93,7 +93,7 @@ TEST(ImitationTask, MaskingOffGivesTheNullMaskAndFixedMaskIsKept) {
 
 TEST(ImitationTask, WindowsHoldTheLastFiveUnmaskedObservations) {
   TinyWalkerSim sim(3);
-  ImitationTask task(sim, upright_sampler(sim.skeleton()), tiny_config(), 3);
+  ImitationTask task(sim, upright_sampler(sim.skeleton()), tiny_task_config(), 3);
   const Index d = task.obs_dim();
   std::vector<MatrixXf> seen;
   for (int k = 0; k < 8; ++k) {
@@ -109,7 +109,7 @@ TEST(ImitationTask, WindowsHoldTheLastFiveUnmaskedObservations) {
 TEST(ImitationTask, RandomActionsFallAndBalancedEnvsTruncate) {
   {
     TinyWalkerSim sim(8);
-    ImitationTask task(sim, upright_sampler(sim.skeleton()), tiny_config(), 11);
+    ImitationTask task(sim, upright_sampler(sim.skeleton()), tiny_task_config(), 11);
     Rng rng(5);
     int terminations = 0;
     for (int k = 0; k < 60; ++k) {
@@ -131,7 +131,7 @@ TEST(ImitationTask, RandomActionsFallAndBalancedEnvsTruncate) {
   }
   {
     TinyWalkerSim sim(4);
-    ImitationTask task(sim, upright_sampler(sim.skeleton()), tiny_config(), 11);
+    ImitationTask task(sim, upright_sampler(sim.skeleton()), tiny_task_config(), 11);
     int truncations = 0;
     for (int k = 0; k < 30; ++k) {
       task.step(balance_actions(sim));
@@ -158,7 +158,7 @@ TEST(ImitationTask, ResetHistoryComesFromTheSampler) {
     for (int k = 0; k < 4; ++k) r.history.col(k).array() += static_cast<float>(k);
     return r;
   };
-  ImitationTask task(sim, sampler, tiny_config(), 2);
+  ImitationTask task(sim, sampler, tiny_task_config(), 2);
   task.step(MatrixXf::Zero(task.action_dim(), 2));
   // window after one step: history frames 1..3, reset frame, new frame
   EXPECT_EQ(task.amp_windows().block(0, 0, d, 1), MatrixXf::Constant(d, 1, 1.5f));
@@ -170,12 +170,12 @@ TEST(ImitationTask, ResetHistoryComesFromTheSampler) {
     r.history = MatrixXf::Zero(3, 4);
     return r;
   };
-  EXPECT_THROW(ImitationTask(sim, bad, tiny_config(), 2), Error);
+  EXPECT_THROW(ImitationTask(sim, bad, tiny_task_config(), 2), Error);
 }
 
 TEST(ImitationTask, RejectsBadActions) {
   TinyWalkerSim sim(2);
-  ImitationTask task(sim, upright_sampler(sim.skeleton()), tiny_config(), 2);
+  ImitationTask task(sim, upright_sampler(sim.skeleton()), tiny_task_config(), 2);
   EXPECT_THROW(task.step(MatrixXf::Zero(3, 2)), Error);
   MatrixXf a = MatrixXf::Zero(task.action_dim(), 2);
   a(4, 1) = NAN;
@@ -188,10 +188,10 @@ TEST(ImitationTask, SavedStateContinuesBitExactly) {
   for (int k = 0; k < 40; ++k)
     actions.push_back(MatrixXf::NullaryExpr(15, 5, [&] { return static_cast<float>(rng.uniform(-0.3, 0.3)); }));
   TinyWalkerSim sim_a(5), sim_b(5);
-  ImitationTask a(sim_a, upright_sampler(sim_a.skeleton()), tiny_config(), 4);
+  ImitationTask a(sim_a, upright_sampler(sim_a.skeleton()), tiny_task_config(), 4);
   for (int k = 0; k < 20; ++k) a.step(actions[static_cast<std::size_t>(k)]);
   const auto st = a.save_state();
-  ImitationTask b(sim_b, upright_sampler(sim_b.skeleton()), tiny_config(), 99);  // different seed
+  ImitationTask b(sim_b, upright_sampler(sim_b.skeleton()), tiny_task_config(), 99);  // different seed
   b.load_state(st);
   EXPECT_EQ(b.policy_inputs(), a.policy_inputs());
   for (int k = 20; k < 40; ++k) {
@@ -202,7 +202,7 @@ TEST(ImitationTask, SavedStateContinuesBitExactly) {
     ASSERT_EQ(a.terminated(), b.terminated());
   }
   TinyWalkerSim sim_c(3);
-  ImitationTask c(sim_c, upright_sampler(sim_c.skeleton()), tiny_config(), 4);
+  ImitationTask c(sim_c, upright_sampler(sim_c.skeleton()), tiny_task_config(), 4);
   EXPECT_THROW(c.load_state(st), Error);
 }
 
@@ -211,12 +211,12 @@ TEST(ImitationTask, SavedStateContinuesBitExactly) {
 TEST(ImitationTask, ActionSpaceMapsActionsToTargets) {
   const Skeleton skel = tiny_walker_skeleton();
   const Index nd = skel.num_dofs();
-  ImitationTaskConfig cfg = tiny_config();
+  ImitationTaskConfig cfg = tiny_task_config();
   cfg.actions.offset = VectorXf::LinSpaced(nd, -0.2f, 0.3f);
   cfg.actions.scale = VectorXf::LinSpaced(nd, 0.5f, 2.0f);
   TinyWalkerSim sim_a(3), sim_b(3);
   ImitationTask<TinyWalkerSim> mapped(sim_a, upright_sampler(skel), cfg, 4);
-  ImitationTask<TinyWalkerSim> direct(sim_b, upright_sampler(skel), tiny_config(), 4);
+  ImitationTask<TinyWalkerSim> direct(sim_b, upright_sampler(skel), tiny_task_config(), 4);
   Rng rng(6);
   for (int t = 0; t < 12; ++t) {
     const MatrixXf a = MatrixXf::NullaryExpr(nd, 3, [&] { return static_cast<float>(rng.uniform(-0.3, 0.3)); });
@@ -228,7 +228,7 @@ TEST(ImitationTask, ActionSpaceMapsActionsToTargets) {
     direct.step(targets);
     ASSERT_TRUE(mapped.observations() == direct.observations()) << "step " << t;
   }
-  ImitationTaskConfig bad = tiny_config();
+  ImitationTaskConfig bad = tiny_task_config();
   bad.actions.scale = VectorXf::Constant(nd, -1.0f);
   TinyWalkerSim sim_c(1);
   EXPECT_THROW(ImitationTask<TinyWalkerSim>(sim_c, upright_sampler(skel), bad, 1), Error);

@@ -20,7 +20,7 @@ using maskadapt::testing::TinyWalkerSim;
 
 namespace {
 
-tasks::ResetSampler upright(const Skeleton& skel) {
+tasks::ResetSampler upright_jittered(const Skeleton& skel) {
   return [&skel](Rng& rng) {
     tasks::ResetSample r;
     r.pose = KinematicState::zero(skel);
@@ -30,7 +30,7 @@ tasks::ResetSampler upright(const Skeleton& skel) {
   };
 }
 
-BaseTrainConfig tiny_config() {
+BaseTrainConfig play_config() {
   BaseTrainConfig c;  // the paper's formulation (struct defaults), not the cpu preset's walking recipe
   c.net.actor_hidden = {8};
   c.net.critic_hidden = {8};
@@ -45,12 +45,12 @@ struct Fixture {
   explicit Fixture(std::size_t envs = 1) : sim(envs) {
     const Index d = observation_dim(sim.skeleton());
     Rng init(3);
-    policy = make_base_policy(tiny_config(), {d, d + kNumParts, sim.skeleton().num_dofs(), 5 * d}, init);
+    policy = make_base_policy(play_config(), {d, d + kNumParts, sim.skeleton().num_dofs(), 5 * d}, init);
   }
   FallCriteria fall() const { return FallCriteria::for_skeleton(sim.skeleton(), {"l_leg", "r_leg"}, "head", 0.8); }
 };
 
-std::filesystem::path temp(const std::string& name) { return std::filesystem::temp_directory_path() / name; }
+std::filesystem::path play_temp(const std::string& name) { return std::filesystem::temp_directory_path() / name; }
 
 }  // namespace
 
@@ -59,7 +59,7 @@ TEST(Play, ClipReproducesTheSimulatedBodyPosesAndMasksFollowTheSchedule) {
   PlayOptions opt;
   opt.seconds = 1.0;
   opt.masks = MaskSampler::scheduled("0:none,0.5:left_leg,right_arm");
-  const PlayResult r = play_base_policy(f.sim, f.policy, upright(f.sim.skeleton()), opt,
+  const PlayResult r = play_base_policy(f.sim, f.policy, upright_jittered(f.sim.skeleton()), opt,
                                         eval::make_rollout(f.sim.skeleton(), 30.0), f.fall());
   const int frames = static_cast<int>(std::llround(1.0 / f.sim.control_dt())) + 1;
   ASSERT_EQ(r.rollout.num_frames(), frames);
@@ -85,7 +85,7 @@ TEST(Play, DeterministicRunsRepeatAndSampledRunsDependOnTheSeed) {
     opt.seconds = 0.5;
     opt.deterministic = det;
     opt.seed = seed;
-    return play_base_policy(f.sim, f.policy, upright(f.sim.skeleton()), opt, eval::make_rollout(f.sim.skeleton()), f.fall()).clip.q;
+    return play_base_policy(f.sim, f.policy, upright_jittered(f.sim.skeleton()), opt, eval::make_rollout(f.sim.skeleton()), f.fall()).clip.q;
   };
   EXPECT_EQ(run(true, 1), run(true, 1));
   EXPECT_EQ(run(false, 4), run(false, 4));
@@ -97,9 +97,9 @@ TEST(Play, OutputsRoundTripThroughTheirReaders) {
   PlayOptions opt;
   opt.seconds = 0.5;
   opt.masks = MaskSampler::fixed(PartMask::parse("legs"));
-  const PlayResult r = play_base_policy(f.sim, f.policy, upright(f.sim.skeleton()), opt, eval::make_rollout(f.sim.skeleton()), f.fall());
+  const PlayResult r = play_base_policy(f.sim, f.policy, upright_jittered(f.sim.skeleton()), opt, eval::make_rollout(f.sim.skeleton()), f.fall());
   // CSV: header + one row per frame, values as recorded
-  const auto csv = temp("maskadapt_play_test.csv");
+  const auto csv = play_temp("maskadapt_play_test.csv");
   write_root_xy_csv(csv.string(), r.root, r.dt);
   std::ifstream in(csv);
   std::string line;
@@ -117,7 +117,7 @@ TEST(Play, OutputsRoundTripThroughTheirReaders) {
   EXPECT_EQ(rows, r.root.cols());
   std::filesystem::remove(csv);
   // viewer rollout: frames, masks and contacts survive write → read
-  const auto json = temp("maskadapt_play_test.json");
+  const auto json = play_temp("maskadapt_play_test.json");
   eval::write_rollout(r.rollout, json.string());
   const eval::Rollout back = eval::read_rollout(json.string());
   ASSERT_EQ(back.num_frames(), r.rollout.num_frames());
@@ -132,10 +132,10 @@ TEST(Play, OutputsRoundTripThroughTheirReaders) {
 
 TEST(Play, RejectsAPolicyOfTheWrongSize) {
   Fixture f;
-  BaseTrainConfig c = tiny_config();
+  BaseTrainConfig c = play_config();
   Rng init(1);
   const BasePolicy wrong = make_base_policy(c, {10, 15, 4, 50}, init);
-  EXPECT_THROW(play_base_policy(f.sim, wrong, upright(f.sim.skeleton()), PlayOptions{}, eval::make_rollout(f.sim.skeleton()), f.fall()),
+  EXPECT_THROW(play_base_policy(f.sim, wrong, upright_jittered(f.sim.skeleton()), PlayOptions{}, eval::make_rollout(f.sim.skeleton()), f.fall()),
                Error);
 }
 
@@ -163,7 +163,7 @@ TEST(EvalBase, HNormReachesItsClosedFormExtremes) {
   // every reference frame → uniform → 1
   opt.threshold = 1e6;
   opt.counting = eval::VisitCounting::all_within;
-  const auto all = evaluate_visitation(f.sim, f.policy, upright(f.sim.skeleton()), PartMask::none(), ref, opt, f.fall());
+  const auto all = evaluate_visitation(f.sim, f.policy, upright_jittered(f.sim.skeleton()), PartMask::none(), ref, opt, f.fall());
   EXPECT_DOUBLE_EQ(all.h_norm, 1.0);
   EXPECT_DOUBLE_EQ(all.matched_fraction, 1.0);
   EXPECT_DOUBLE_EQ(all.visited_fraction, 1.0);
@@ -172,14 +172,14 @@ TEST(EvalBase, HNormReachesItsClosedFormExtremes) {
   opt.counting = eval::VisitCounting::nearest;
   MatrixXf one_near = ref;
   one_near.rightCols(6).array() += 100.f;
-  const auto one = evaluate_visitation(f.sim, f.policy, upright(f.sim.skeleton()), PartMask::none(), one_near, opt, f.fall());
+  const auto one = evaluate_visitation(f.sim, f.policy, upright_jittered(f.sim.skeleton()), PartMask::none(), one_near, opt, f.fall());
   EXPECT_DOUBLE_EQ(one.matched_fraction, 1.0);
   EXPECT_DOUBLE_EQ(one.visited_fraction, 1.0 / 7.0);
   EXPECT_EQ(one.h_norm, 0.0);
   opt.counting = eval::VisitCounting::all_within;
   // threshold 0 against frames far away: nothing matches → 0 by convention
   opt.threshold = 0.0;
-  const auto none = evaluate_visitation(f.sim, f.policy, upright(f.sim.skeleton()), PartMask::none(), MatrixXf(ref.array() + 100.f), opt, f.fall());
+  const auto none = evaluate_visitation(f.sim, f.policy, upright_jittered(f.sim.skeleton()), PartMask::none(), MatrixXf(ref.array() + 100.f), opt, f.fall());
   EXPECT_EQ(none.h_norm, 0.0);
   EXPECT_EQ(none.matched_fraction, 0.0);
   // episodes of 0.2 s over 12 steps of 1/30 s: every env ends at least one episode
@@ -220,7 +220,7 @@ TEST(EvalBase, TableHasTheUpperTriangularShapeAndJsonMatchesTheRows) {
   // reference: the visitation features of a few random upright poses
   const Skeleton& skel = f.sim.skeleton();
   Rng rng(9);
-  auto reset = upright(skel);
+  auto reset = upright_jittered(skel);
   MatrixXf ref;
   for (int k = 0; k < 20; ++k) {
     const VectorXf v = visitation_features(skel, forward_kinematics(skel, reset(rng).pose));

@@ -27,14 +27,14 @@ using maskadapt::testing::TinyWalkerSim;
 
 namespace {
 
-BaseTrainConfig tiny_config() { return maskadapt::testing::tiny_walker_config(); }
+BaseTrainConfig export_config() { return maskadapt::testing::tiny_walker_config(); }
 
 // A trainer on the tiny walker after two iterations (upright resets with small random joint
 // angles; "real" discriminator windows of uniform noise: what they are does not matter here).
-struct TinyRun {
+struct ExportRun {
   TinyWalkerSim sim;
   BaseTrainer<TinyWalkerSim> trainer;
-  explicit TinyRun(const BaseTrainConfig& c)
+  explicit ExportRun(const BaseTrainConfig& c)
       : sim(static_cast<std::size_t>(c.env.num_envs)),
         trainer(
             sim,
@@ -66,7 +66,7 @@ Checkpoint exported(const Checkpoint& training, const std::string& note = "a not
   return out;
 }
 
-std::filesystem::path temp(const std::string& name) {
+std::filesystem::path export_temp(const std::string& name) {
   return std::filesystem::temp_directory_path() / ("maskadapt_export_" + std::to_string(::getpid()) + "_" + name);
 }
 
@@ -107,7 +107,7 @@ void expect_refused(const std::function<void()>& f, const std::string& section, 
 // The export holds exactly the actor's sections, the model/ and provenance/ records, and is a
 // small fraction of the training checkpoint on disk (no replay buffer, no Adam moments).
 TEST(PolicyExport, HoldsOnlyThePolicyAndIsMuchSmaller) {
-  TinyRun run(tiny_config());
+  ExportRun run(export_config());
   const Checkpoint training = run.checkpoint();
   const Checkpoint model = exported(training);
   EXPECT_TRUE(is_policy_export(model));
@@ -137,7 +137,7 @@ TEST(PolicyExport, HoldsOnlyThePolicyAndIsMuchSmaller) {
   EXPECT_EQ(d.policy_input_dim, run.dims().policy_input_dim);
   EXPECT_EQ(d.action_dim, run.dims().action_dim);
 
-  const auto tp = temp("training.bin"), mp = temp("model.bin");
+  const auto tp = export_temp("training.bin"), mp = export_temp("model.bin");
   save_checkpoint(tp, training);
   save_checkpoint(mp, model);
   const auto ts = std::filesystem::file_size(tp), ms = std::filesystem::file_size(mp);
@@ -153,9 +153,9 @@ TEST(PolicyExport, HoldsOnlyThePolicyAndIsMuchSmaller) {
 // the live trainer give the same bits; load_base_policy says policy_only for the export only;
 // stage 2's load_base_actor reads the export unchanged and gives the same bits too.
 TEST(PolicyExport, ActorIsBitIdenticalAndEveryLoaderReadsIt) {
-  TinyRun run(tiny_config());
+  ExportRun run(export_config());
   const Checkpoint training = run.checkpoint();
-  const auto mp = temp("model_bits.bin");
+  const auto mp = export_temp("model_bits.bin");
   save_checkpoint(mp, exported(training));
   const Checkpoint model = load_checkpoint(mp);
   std::filesystem::remove(mp);
@@ -183,11 +183,11 @@ TEST(PolicyExport, ActorIsBitIdenticalAndEveryLoaderReadsIt) {
 // Normalised actions: the action space travels with the export and loads back identically,
 // through load_base_policy and through stage 2's load_base_actor.
 TEST(PolicyExport, CarriesTheActionSpace) {
-  auto cfg = tiny_config();
+  auto cfg = export_config();
   cfg.net.action_offset = "mid_range";
   cfg.net.action_scale = "half_range";
   resolve_action_space(cfg, TinyWalkerSim(1).skeleton(), nullptr);
-  TinyRun run(cfg);
+  ExportRun run(cfg);
   const Checkpoint model = exported(run.checkpoint());
   ASSERT_TRUE(model.contains("actor/action_offset"));
   ASSERT_TRUE(model.contains("actor/action_scale"));
@@ -205,7 +205,7 @@ TEST(PolicyExport, CarriesTheActionSpace) {
 // checkpoint, a file that already is an export, a checkpoint without config or actor, an actor
 // that does not fit its config's architecture, or malformed actor sections.
 TEST(PolicyExport, RefusesWhatIsNotAStageOneCheckpoint) {
-  TinyRun run(tiny_config());
+  ExportRun run(export_config());
   const Checkpoint training = run.checkpoint();
   const std::string file = "runs/tiny/checkpoint.bin";
   Checkpoint out;
@@ -223,7 +223,7 @@ TEST(PolicyExport, RefusesWhatIsNotAStageOneCheckpoint) {
     expect_refused(export_of(c), missing, file);
   }
   Checkpoint other_net = training;  // the config describes another actor than the one stored
-  auto cfg = tiny_config();
+  auto cfg = export_config();
   cfg.net.actor_hidden = {16, 8};
   other_net.put_string("config", to_json(cfg).dump());
   expect_refused(export_of(other_net), "actor/params", file);
@@ -244,7 +244,7 @@ TEST(PolicyExport, RefusesWhatIsNotAStageOneCheckpoint) {
 // What loading an export refuses: another kind, another format version, recorded dims that do
 // not match the sections, a simulator of other sizes, and missing actor sections.
 TEST(PolicyExport, LoadingChecksKindVersionAndDims) {
-  TinyRun run(tiny_config());
+  ExportRun run(export_config());
   const std::string file = "models/tiny.bin";
   Checkpoint model = exported(run.checkpoint());
   model.set_source(file);
@@ -285,14 +285,14 @@ TEST(PolicyExport, LoadingChecksKindVersionAndDims) {
 // is read too); a checkpoint without them gets the "unknown" text and NaN; exported_from, the
 // commit and the note are stored; all of it survives a file round trip.
 TEST(PolicyExport, ProvenanceRoundTrips) {
-  TinyRun run(tiny_config());
+  ExportRun run(export_config());
   Checkpoint training = run.checkpoint();
   const std::string history =
       "2026-12-01T10:00:00Z git 1111111: maskadapt train-base --preset cpu\n"
       "2026-12-01T12:00:00Z git 2222222: maskadapt train-base --resume runs/base/checkpoint.bin\n";
   training.put_string("provenance/history", history);
   training.put_double("provenance/train_seconds", 7261.5);
-  const auto mp = temp("provenance.bin");
+  const auto mp = export_temp("provenance.bin");
   save_checkpoint(mp, exported(training, "walk, 2 h, masks on"));
   const ExportProvenance p = export_provenance(load_checkpoint(mp));
   std::filesystem::remove(mp);
