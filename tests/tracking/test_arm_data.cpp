@@ -65,6 +65,9 @@ TEST(ArmData, WindowsTakeTheTextsOfTheSegmentOfTheirFirstFutureFrame) {
   for (Index s = 0; s < d.size(); ++s) {
     const int want = s + 5 >= 30 ? 1 : 0;  // first future frame = s + H
     EXPECT_EQ(d.label[static_cast<std::size_t>(s)], want) << "window " << s;
+    // transition: the first future frame lies in [30, 30 + H + F) — the switch and its first 20 frames
+    const int in_transition = s + 5 >= 30 && s + 5 < 50 ? 1 : 0;
+    EXPECT_EQ(d.transition[static_cast<std::size_t>(s)], in_transition) << "window " << s;
   }
   EXPECT_EQ(d.label_texts[1], std::vector<std::string>{"wave"});
   // a clip without segments: one label set, its texts
@@ -73,6 +76,7 @@ TEST(ArmData, WindowsTakeTheTextsOfTheSegmentOfTheirFirstFutureFrame) {
   EXPECT_EQ(d2.label_texts.size(), 3u);
   EXPECT_EQ(d2.label.front(), 0);
   EXPECT_EQ(d2.label_texts[0], std::vector<std::string>{"run"});
+  for (Index s = 0; s < 5; ++s) EXPECT_EQ(d2.transition[static_cast<std::size_t>(s)], 0);  // no segments: none
   c.segments = {{5, {"x"}}};
   EXPECT_THROW(make_primitive_dataset(skel, {c}, 5, 15, 1), Error);
 }
@@ -118,9 +122,122 @@ TEST(ArmEval, FeaturesIgnoreTheHeadingAndTheClassifierSeparatesArmPoses) {
   const std::vector<std::string> prompts = {"small", "large"};
   const ArmSamples s = collect_arm_samples(skel, clips, prompts, 30, 0, 15);
   ASSERT_EQ(s.labels.size(), 14u);
-  const NearestMeanClassifier clf(s.summaries, s.labels, 2);
+  const ArmClassifier clf(s.summaries, s.labels, 2);
   const ArmFollowingReport r = evaluate_samples(s, prompts, clf);
   EXPECT_EQ(r.overall_accuracy(), 1.0);
   EXPECT_GT(r.diversity[0], 0.0);
-  EXPECT_THROW(NearestMeanClassifier(s.summaries, s.labels, 3), Error);  // class 2 has no sample
+  EXPECT_THROW(ArmClassifier(s.summaries, s.labels, 3), Error);  // class 2 has no sample
+}
+
+namespace {
+
+// Brute-force forms of the three probes on z-scored data (z = (x − μ) / σ, σ over all samples).
+struct ProbeReference {
+  MatrixXd z;
+  std::vector<int> y;
+  VectorXd mu, sd;
+  int classes;
+  VectorXd zscore(const VectorXd& x) const { return (x - mu).cwiseQuotient(sd); }
+  MatrixXd class_means() const {
+    MatrixXd m = MatrixXd::Zero(z.rows(), classes);
+    VectorXd n = VectorXd::Zero(classes);
+    for (Index j = 0; j < z.cols(); ++j) {
+      m.col(y[j]) += z.col(j);
+      n[y[j]] += 1;
+    }
+    for (int c = 0; c < classes; ++c) m.col(c) /= n[c];
+    return m;
+  }
+  int nearest_mean(const VectorXd& x, const MatrixXd& metric) const {  // argmin (q − m)ᵀ metric (q − m)
+    const MatrixXd m = class_means();
+    const VectorXd q = zscore(x);
+    int best = 0;
+    double bd = INFINITY;
+    for (int c = 0; c < classes; ++c) {
+      const VectorXd d = q - m.col(c);
+      const double v = d.dot(metric * d);
+      if (v < bd) {
+        bd = v;
+        best = c;
+      }
+    }
+    return best;
+  }
+  int lda(const VectorXd& x, double shrink) const {
+    const MatrixXd m = class_means();
+    MatrixXd S = MatrixXd::Zero(z.rows(), z.rows());
+    for (Index j = 0; j < z.cols(); ++j) S += (z.col(j) - m.col(y[j])) * (z.col(j) - m.col(y[j])).transpose();
+    S /= static_cast<double>(z.cols());
+    MatrixXd shrunk = (1 - shrink) * S;
+    shrunk.diagonal() += shrink * S.diagonal();
+    return nearest_mean(x, shrunk.inverse());
+  }
+  int knn(const VectorXd& x, int k) const {
+    const VectorXd q = zscore(x);
+    std::vector<std::pair<double, Index>> d;
+    for (Index j = 0; j < z.cols(); ++j) d.push_back({(z.col(j) - q).squaredNorm(), j});
+    std::sort(d.begin(), d.end());
+    std::vector<int> votes(static_cast<std::size_t>(classes), 0);
+    for (int i = 0; i < k; ++i) ++votes[static_cast<std::size_t>(y[static_cast<std::size_t>(d[static_cast<std::size_t>(i)].second)])];
+    return static_cast<int>(std::max_element(votes.begin(), votes.end()) - votes.begin());
+  }
+};
+
+}  // namespace
+
+TEST(ArmEval, ProbesEqualTheirBruteForceDefinitions) {
+  // 3 classes × 25 samples in 5 dimensions with correlated, unequal within-class spread, so that
+  // the three rules disagree on many queries.
+  Rng rng(5);
+  const int C = 3, per = 25, dims = 5;
+  MatrixXd mix = MatrixXd::Zero(dims, dims);
+  for (Index i = 0; i < dims; ++i)
+    for (Index j = 0; j < dims; ++j) mix(i, j) = rng.normal() * (i == j ? 2.0 : 0.7);
+  MatrixXd x(dims, C * per);
+  std::vector<int> y;
+  for (int c = 0; c < C; ++c)
+    for (int k = 0; k < per; ++k) {
+      VectorXd e(dims);
+      for (Index i = 0; i < dims; ++i) e[i] = rng.normal();
+      x.col(c * per + k) = mix * e + VectorXd::Constant(dims, 1.5 * c) + VectorXd::Unit(dims, c) * 2.0;
+      y.push_back(c);
+    }
+  ProbeReference ref{x, y, x.rowwise().mean(), VectorXd(), C};
+  ref.sd = ((x.colwise() - ref.mu).array().square().rowwise().mean()).sqrt().matrix();
+  for (Index j = 0; j < x.cols(); ++j) ref.z.col(j) = ref.zscore(x.col(j));
+  const ArmClassifier mean_probe(x, y, C, parse_arm_probe("nearest-mean"));
+  const ArmClassifier lda0(x, y, C, parse_arm_probe("lda:0")), lda3(x, y, C, parse_arm_probe("lda:0.3"));
+  const ArmClassifier nn1(x, y, C, parse_arm_probe("knn")), nn5(x, y, C, parse_arm_probe("knn:5"));
+  int disagree = 0;
+  for (int q = 0; q < 300; ++q) {
+    VectorXd p(dims);
+    for (Index i = 0; i < dims; ++i) p[i] = rng.uniform(-6.0, 9.0);
+    const int a = ref.nearest_mean(p, MatrixXd::Identity(dims, dims));
+    EXPECT_EQ(mean_probe.predict(p), a) << "query " << q;
+    EXPECT_EQ(lda0.predict(p), ref.lda(p, 0.0)) << "query " << q;
+    EXPECT_EQ(lda3.predict(p), ref.lda(p, 0.3)) << "query " << q;
+    EXPECT_EQ(nn1.predict(p), ref.knn(p, 1)) << "query " << q;
+    EXPECT_EQ(nn5.predict(p), ref.knn(p, 5)) << "query " << q;
+    disagree += ref.lda(p, 0.0) != a;
+  }
+  EXPECT_GT(disagree, 10);  // the metric matters on these data: the test tells the rules apart
+  // 1-NN recovers every training sample's own class
+  for (Index j = 0; j < x.cols(); ++j) EXPECT_EQ(nn1.predict(x.col(j)), y[static_cast<std::size_t>(j)]);
+}
+
+TEST(ArmEval, ProbeNamesParseAndBadOnesAreRefusedNamingTheFlag) {
+  EXPECT_EQ(parse_arm_probe("nearest-mean").kind, ArmProbe::NearestMean);
+  EXPECT_EQ(parse_arm_probe("lda").kind, ArmProbe::Lda);
+  EXPECT_DOUBLE_EQ(parse_arm_probe("lda:0.25").shrinkage, 0.25);
+  EXPECT_EQ(parse_arm_probe("knn").k, 1);
+  EXPECT_EQ(parse_arm_probe("knn:7").k, 7);
+  EXPECT_EQ(parse_arm_probe("knn:3").name(), "3-nearest neighbours");
+  for (const char* bad : {"", "knn:0", "knn:2.5", "knn:x", "lda:1.5", "lda:", "lda:nan", "nearest-mean:2", "svm"}) {
+    try {
+      (void)parse_arm_probe(bad, "--probe");
+      ADD_FAILURE() << "'" << bad << "' was accepted";
+    } catch (const Error& e) {
+      EXPECT_NE(std::string(e.what()).find("--probe"), std::string::npos) << e.what();
+    }
+  }
 }

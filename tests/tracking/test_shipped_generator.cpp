@@ -1,10 +1,10 @@
 // The generator committed under models/ (models/README.md "text_generator.bin"): it loads, has the
 // documented sizes and provenance, and — when the shared data are present — follows its arms
-// prompts from a walking history: the nearest-class-mean probe (tracking/arm_eval.hpp) recovers
-// the prompt in ≥ 65 % of 10 samples per prompt over the 13 prompts (chance: 1/13 ≈ 8 %; the
-// first generator scored 7.7 %), and samples from different seeds differ. 65 % is a regression
-// floor under the measured 70.8 % (docs/generator.md): issue 19's 80 % is NOT met — the same
-// classifier scores 78.7 % on the real labelled windows it was fitted on.
+// prompts from a walking history: the default probe (1-nearest neighbour, tracking/arm_eval.hpp)
+// recovers the prompt in ≥ 65 % of 10 samples per prompt over the 13 prompts (chance: 1/13 ≈ 8 %;
+// the first generator scored 7.7 %), and samples from different seeds differ. 65 % is a
+// regression floor under the measured 68.5 % (docs/generator.md): issue 19's 80 % is NOT met. The
+// probe is not what limits it: it recovers ≥ 90 % (measured 95.7 %) of held-out real windows.
 #include <maskadapt/humanoid/description.hpp>
 #include <maskadapt/tracking/arm_data.hpp>
 #include <maskadapt/tracking/arm_eval.hpp>
@@ -62,6 +62,9 @@ TEST(ShippedGenerator, FollowsItsArmsPromptsFromAWalk) {
   ASSERT_EQ(ev.prompts, g.arms_pool());
   PromptEvalOptions o;
   o.samples = 10;
+  // the probe on real walks with switched arms that it was not fitted on
+  const ArmFollowingReport real = evaluate_samples(ev.heldout, ev.prompts, ev.classifier);
+  EXPECT_GE(real.overall_accuracy(), 0.9);
   const ArmFollowingReport r = evaluate_prompts(g, ev.prompts, ev.histories, ev.classifier, o);
   std::string table;
   for (std::size_t i = 0; i < r.classes.size(); ++i)

@@ -5,8 +5,10 @@
 /// Arm features of a frame (12): the positions of L_Elbow, R_Elbow, L_Wrist, R_Wrist relative to
 /// the pelvis, in the pelvis's heading frame (x forward, y left, z up; m). A span of frames is
 /// summarised by the mean, the standard deviation, the minimum and the maximum over time of each
-/// (48 values: `arm_summary`). `NearestMeanClassifier` z-scores the summaries (per-dimension std over all
-/// training samples) and assigns the class with the nearest mean (Euclidean).
+/// (48 values: `arm_summary`). `ArmClassifier` z-scores the summaries (per-dimension std over all
+/// training samples) and assigns a class by one of three simple rules (`ArmProbe`): nearest class
+/// mean, LDA (nearest mean in the metric of the pooled within-class covariance) or k nearest
+/// neighbours.
 ///
 /// `evaluate_prompts`: for every prompt, N rollouts of the generator from walking histories
 /// (sample i: history i mod K, seed base + i), `lead_s` seconds to transition, then `span_s`
@@ -28,6 +30,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
 #include <string>
 #include <utility>
 #include <vector>
@@ -65,22 +68,80 @@ inline VectorXd arm_summary(const MatrixXd& f) {
   return s;
 }
 
-class NearestMeanClassifier {
+/// The arm probes. All z-score the summaries (per-dimension std over the training samples).
+///  - NearestMean: the class whose mean is nearest (Euclidean).
+///  - Lda: the nearest class mean after whitening by the pooled within-class covariance, shrunk
+///    towards its diagonal by `shrinkage` (linear discriminant analysis with equal priors).
+///  - NearestNeighbours: the majority class of the `k` nearest training samples (ties: the class
+///    with the smaller index).
+enum class ArmProbe { NearestMean, Lda, NearestNeighbours };
+
+struct ArmProbeConfig {
+  ArmProbe kind = ArmProbe::NearestMean;
+  double shrinkage = 0.1;  ///< Lda: weight of the diagonal, in [0, 1]
+  int k = 1;               ///< NearestNeighbours
+  std::string name() const {
+    switch (kind) {
+      case ArmProbe::NearestMean: return "nearest class mean";
+      case ArmProbe::Lda: return "LDA (shrinkage " + std::to_string(shrinkage).substr(0, 4) + ")";
+      case ArmProbe::NearestNeighbours: return std::to_string(k) + "-nearest neighbour" + (k > 1 ? "s" : "");
+    }
+    return "?";
+  }
+};
+
+/// "nearest-mean", "lda" / "lda:SHRINKAGE", "knn" / "knn:K" (K ≥ 1) → the probe; anything else
+/// throws naming `field` (a flag, say).
+inline ArmProbeConfig parse_arm_probe(const std::string& text, const std::string& field = "probe") {
+  ArmProbeConfig c;
+  const auto colon = text.find(':');
+  const std::string kind = text.substr(0, colon), arg = colon == std::string::npos ? "" : text.substr(colon + 1);
+  const auto number = [&](double lo, double hi) {
+    char* end = nullptr;
+    const double v = std::strtod(arg.c_str(), &end);
+    require(!arg.empty() && end && *end == '\0' && std::isfinite(v) && v >= lo && v <= hi,
+            "'" + text + "': the value after ':' must be a number in [" + std::to_string(lo).substr(0, 3) + ", " +
+                (std::isfinite(hi) ? std::to_string(hi).substr(0, 3) : std::string("∞")) + "]",
+            {{}, {}, field});
+    return v;
+  };
+  if (kind == "nearest-mean" && colon == std::string::npos) {
+    c.kind = ArmProbe::NearestMean;
+  } else if (kind == "lda") {
+    c.kind = ArmProbe::Lda;
+    if (colon != std::string::npos) c.shrinkage = number(0.0, 1.0);
+  } else if (kind == "knn") {
+    c.kind = ArmProbe::NearestNeighbours;
+    if (colon != std::string::npos) {
+      const double k = number(1.0, 1e6);
+      require(k == std::floor(k), "'" + text + "': k must be a whole number", {{}, {}, field});
+      c.k = static_cast<int>(k);
+    }
+  } else {
+    throw Error("'" + text + "' is not a probe (nearest-mean, lda[:SHRINKAGE], knn[:K])", {{}, {}, field});
+  }
+  return c;
+}
+
+class ArmClassifier {
  public:
-  NearestMeanClassifier() = default;
+  ArmClassifier() = default;
   /// x: (48 × N) summaries, y: (N) class indices in [0, num_classes). Every class needs a sample.
-  NearestMeanClassifier(const MatrixXd& x, const std::vector<int>& y, int num_classes) {
+  ArmClassifier(const MatrixXd& x, const std::vector<int>& y, int num_classes, const ArmProbeConfig& cfg = {})
+      : cfg_(cfg) {
     require(x.cols() == static_cast<Index>(y.size()) && x.cols() > 0 && num_classes > 0, "classifier: bad training set",
             {{}, {}, "samples"});
-    const VectorXd mu = x.rowwise().mean();
-    scale_ = ((x.colwise() - mu).array().square().rowwise().mean()).sqrt().matrix();
-    scale_ = scale_.cwiseMax(1e-3);
+    require(cfg.shrinkage >= 0 && cfg.shrinkage <= 1 && cfg.k >= 1, "classifier: shrinkage in [0, 1] and k ≥ 1",
+            {{}, {}, "ArmProbeConfig"});
+    mean_ = x.rowwise().mean();
+    scale_ = ((x.colwise() - mean_).array().square().rowwise().mean()).sqrt().matrix().cwiseMax(1e-3);
+    MatrixXd z = standardise(x);
     means_ = MatrixXd::Zero(x.rows(), num_classes);
     std::vector<int> count(static_cast<std::size_t>(num_classes), 0);
     for (Index j = 0; j < x.cols(); ++j) {
       const int c = y[static_cast<std::size_t>(j)];
       require(c >= 0 && c < num_classes, "classifier: class index out of range", {{}, {}, "labels"});
-      means_.col(c) += x.col(j).cwiseQuotient(scale_);
+      means_.col(c) += z.col(j);
       ++count[static_cast<std::size_t>(c)];
     }
     for (int c = 0; c < num_classes; ++c) {
@@ -88,17 +149,53 @@ class NearestMeanClassifier {
               {{}, {}, "labels"});
       means_.col(c) /= count[static_cast<std::size_t>(c)];
     }
+    if (cfg.kind == ArmProbe::Lda) {
+      MatrixXd r = z;  // within-class residuals
+      for (Index j = 0; j < z.cols(); ++j) r.col(j) -= means_.col(y[static_cast<std::size_t>(j)]);
+      MatrixXd cov = r * r.transpose() / static_cast<double>(z.cols());
+      const VectorXd diag = cov.diagonal().cwiseMax(1e-6);
+      cov = (1.0 - cfg.shrinkage) * cov;
+      cov.diagonal() += cfg.shrinkage * diag;
+      const Eigen::LLT<MatrixXd> llt(cov);
+      require(llt.info() == Eigen::Success, "classifier: the within-class covariance is singular (raise the shrinkage)",
+              {{}, {}, "shrinkage"});
+      whiten_ = llt.matrixL().solve(MatrixXd::Identity(cov.rows(), cov.cols()));  // L⁻¹: ‖L⁻¹v‖² = vᵀΣ⁻¹v
+      means_ = whiten_ * means_;
+    }
+    if (cfg.kind == ArmProbe::NearestNeighbours) {
+      samples_ = std::move(z);
+      labels_ = y;
+    }
   }
   int num_classes() const { return static_cast<int>(means_.cols()); }
+  const ArmProbeConfig& config() const { return cfg_; }
   int predict(const VectorXd& s) const {
+    VectorXd z = standardise(s);
+    if (cfg_.kind == ArmProbe::NearestNeighbours) {
+      const VectorXd d = (samples_.colwise() - z).colwise().squaredNorm();
+      std::vector<Index> order(static_cast<std::size_t>(d.size()));
+      for (Index i = 0; i < d.size(); ++i) order[static_cast<std::size_t>(i)] = i;
+      const auto k = std::min<std::size_t>(static_cast<std::size_t>(cfg_.k), order.size());
+      std::partial_sort(order.begin(), order.begin() + static_cast<std::ptrdiff_t>(k), order.end(),
+                        [&d](Index a, Index b) { return d[a] < d[b] || (d[a] == d[b] && a < b); });
+      std::vector<int> votes(static_cast<std::size_t>(num_classes()), 0);
+      for (std::size_t i = 0; i < k; ++i) ++votes[static_cast<std::size_t>(labels_[static_cast<std::size_t>(order[i])])];
+      return static_cast<int>(std::max_element(votes.begin(), votes.end()) - votes.begin());
+    }
+    if (cfg_.kind == ArmProbe::Lda) z = whiten_ * z;
     Index best = 0;
-    (means_.colwise() - s.cwiseQuotient(scale_)).colwise().squaredNorm().minCoeff(&best);
+    (means_.colwise() - z).colwise().squaredNorm().minCoeff(&best);
     return static_cast<int>(best);
   }
 
  private:
-  MatrixXd means_;  ///< (48 × classes) in z-scored units
-  VectorXd scale_;  ///< (48)
+  MatrixXd standardise(const MatrixXd& x) const { return (x.colwise() - mean_).array().colwise() / scale_.array(); }
+  ArmProbeConfig cfg_;
+  MatrixXd means_;    ///< (48 × classes) z-scored (Lda: and whitened)
+  VectorXd mean_, scale_;  ///< (48)
+  MatrixXd whiten_;   ///< Lda: (48 × 48) L⁻¹ of the shrunk pooled covariance
+  MatrixXd samples_;  ///< NearestNeighbours: (48 × N) z-scored training summaries
+  std::vector<int> labels_;
 };
 
 /// Confusion matrix (rows: true class / prompt, columns: predicted), per-row accuracy, diversity.
@@ -151,7 +248,7 @@ struct PromptEvalOptions {
 /// `classify` gets the prompt's index into `prompts` as truth.
 template <TrajectoryGenerator G>
 ArmFollowingReport evaluate_prompts(G& g, const std::vector<std::string>& prompts, const std::vector<Trajectory>& histories,
-                                    const NearestMeanClassifier& clf, const PromptEvalOptions& opt) {
+                                    const ArmClassifier& clf, const PromptEvalOptions& opt) {
   require(!prompts.empty() && !histories.empty() && opt.samples >= 1 && opt.lead_s >= 0 && opt.span_s > 0,
           "evaluate_prompts: need prompts, histories, samples ≥ 1, span > 0", {{}, {}, "PromptEvalOptions"});
   require(clf.num_classes() == static_cast<int>(prompts.size()), "classifier classes and prompts differ",
@@ -237,7 +334,7 @@ inline ArmSamples collect_arm_samples(const Skeleton& skel, const std::vector<La
 /// diversity of a class is the mean pairwise RMS distance of its samples' feature sequences (at
 /// most `max_pairs_samples` evenly spaced samples per class, to bound the cost).
 inline ArmFollowingReport evaluate_samples(const ArmSamples& s, const std::vector<std::string>& prompts,
-                                           const NearestMeanClassifier& clf, std::size_t max_pairs_samples = 40) {
+                                           const ArmClassifier& clf, std::size_t max_pairs_samples = 40) {
   const int C = static_cast<int>(prompts.size());
   ArmFollowingReport r;
   r.classes = prompts;
@@ -260,20 +357,23 @@ inline ArmFollowingReport evaluate_samples(const ArmSamples& s, const std::vecto
 }
 
 /// What eval-generator and the tests probe with: the arm classes found under the data directory
-/// (their prompts, catalog order), the classifier fitted on walks with switched arms, the raw
-/// (standing) arm clips as a second reference, and K = 2 walking histories.
+/// (their prompts, catalog order), the classifier fitted on walks with switched arms, a second set
+/// of such walks drawn after it (other walks, phases and switch times: the probe's held-out
+/// test), the raw (standing) arm clips as a third reference, and K = 2 walking histories.
 struct GeneratorEvalSet {
   std::vector<std::string> prompts;
-  ArmSamples train;  ///< 2-s windows of walks whose arms switched (fitted on)
-  ArmSamples raw;    ///< 2-s windows of the arm clips as recorded
-  NearestMeanClassifier classifier;
+  ArmSamples train;    ///< 2-s windows of walks whose arms switched (fitted on)
+  ArmSamples heldout;  ///< the same kind of windows, drawn after `train` (not fitted on)
+  ArmSamples raw;      ///< 2-s windows of the arm clips as recorded
+  ArmClassifier classifier;
   std::vector<Trajectory> histories;  ///< world frame, H = 5 frames each
 };
 
 /// Builds the set from data_dir (the folder holding motions/); throws naming the directory when
-/// the real arm clips are absent. rng draws the blends (walk, arm clip, phase, switch time).
+/// the real arm clips are absent. rng draws the blends (walk, arm clip, phase, switch time): the
+/// training windows first, then the held-out ones.
 inline GeneratorEvalSet make_generator_eval_set(const std::string& data_dir, const Skeleton& skel, Rng& rng,
-                                                Index history_frames = 5) {
+                                                const ArmProbeConfig& probe = {}, Index history_frames = 5) {
   GeneratorEvalSet e;
   const ArmData arms = load_arm_data(data_dir);
   require(arms.classes.size() > 1, "the probe needs the shared arm clips (motions/bandai/gestures, motions/styles, motions/cmu)",
@@ -287,11 +387,12 @@ inline GeneratorEvalSet make_generator_eval_set(const std::string& data_dir, con
   o.back_probability = 0.0;
   const auto sw = make_arm_switch_clips(walks, arms, skel, rng, o);
   e.train = collect_arm_samples(skel, sw, e.prompts, 60, 15, 30);
+  e.heldout = collect_arm_samples(skel, make_arm_switch_clips(walks, arms, skel, rng, o), e.prompts, 60, 15, 30);
   std::vector<LabelledTrajectory> raw;
   for (const auto& cls : arms.clips)
     for (const auto& c : cls) raw.push_back(labelled_from_clip(c, skel));
   e.raw = collect_arm_samples(skel, raw, e.prompts, 60, 0, 30);
-  e.classifier = NearestMeanClassifier(e.train.summaries, e.train.labels, static_cast<int>(e.prompts.size()));
+  e.classifier = ArmClassifier(e.train.summaries, e.train.labels, static_cast<int>(e.prompts.size()), probe);
   for (std::size_t k = 0; k < 2; ++k) {
     const LabelledTrajectory w = labelled_from_clip(walks[k % walks.size()], skel);
     const Index end = std::min<Index>(w.motion.num_frames(), 60 + 30 * static_cast<Index>(k));
