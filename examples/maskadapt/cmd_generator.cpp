@@ -53,6 +53,7 @@ std::string machine_line() {
 struct TrainOptions {
   std::string data, out, mix = "arms";
   double minutes = 0.0, arm_seconds = 120.0, guidance = -1.0, temperature = -1.0;  ///< < 0: the defaults (5, 1)
+  double transition_fraction = 0.0;
   long long iterations = 2000;
   long long batch = 64;
   unsigned long long seed = 1;
@@ -66,7 +67,7 @@ struct GenerateOptions {
 };
 
 struct EvalOptions {
-  std::string checkpoint, data, out, save;
+  std::string checkpoint, data, out, save, probe = "knn";
   std::vector<std::string> prompts, paraphrases;
   long long samples = 10;
   unsigned long long seed = 1;
@@ -116,6 +117,9 @@ void run_train(const TrainOptions& o) {
     tc.vae_iterations = tc.diffusion_iterations = 1'000'000'000;
   }
   tc.batch = o.batch;
+  tc.transition_fraction = o.transition_fraction;
+  std::cout << "transition windows: " << std::count(data.transition.begin(), data.transition.end(), 1) << " of "
+            << data.size() << ", drawn for " << 100.0 * o.transition_fraction << " % of each diffusion batch\n";
   tc.log_every = std::max<Index>(1, std::min<Index>(200, tc.vae_iterations / 5));
   const auto rep = train_generator(g, data, tc, rng, [](const std::string& s) { std::cout << s << std::endl; });
   g.set_arms_pool(pool);
@@ -125,6 +129,7 @@ void run_train(const TrainOptions& o) {
                     {"machine", machine_line()},
                     {"seed", o.seed},
                     {"data_mix", o.mix},
+                    {"transition_fraction", o.transition_fraction},
                     {"data_dir", root},
                     {"clips", corpus.clips.size()},
                     {"windows", data.size()},
@@ -228,17 +233,18 @@ void run_eval(const EvalOptions& o) {
   if (o.temperature > 0) g.config().temperature = o.temperature;
   const std::string root = data_root(o.data);
   Rng data_rng(12345);
-  const GeneratorEvalSet ev = make_generator_eval_set(root, skel, data_rng);
+  const GeneratorEvalSet ev = make_generator_eval_set(root, skel, data_rng, parse_arm_probe(o.probe, "--probe"));
   std::vector<std::string> prompts = o.prompts.empty() ? ev.prompts : o.prompts;
   for (const auto& p : prompts)
     require(std::find(ev.prompts.begin(), ev.prompts.end(), p) != ev.prompts.end(),
             "'" + p + "' is not a class of the arm catalog found under " + root, {{}, {}, "--prompts"});
   require(prompts == ev.prompts, "--prompts must list every catalog class in catalog order (the classifier's classes)",
           {{}, {}, "--prompts"});
-  std::cout << "generator " << path << " (guidance " << g.config().guidance << ", temperature " << g.config().temperature << "); classifier: nearest class mean of 48 arm-feature statistics, " << ev.train.labels.size()
+  std::cout << "generator " << path << " (guidance " << g.config().guidance << ", temperature " << g.config().temperature << "); classifier: " << ev.classifier.config().name() << " on 48 arm-feature statistics, " << ev.train.labels.size()
             << " labelled 2-s windows of walks with switched arms (seed 12345); " << ev.histories.size()
             << " walking histories\n";
   const ArmFollowingReport real_blend = evaluate_samples(ev.train, ev.prompts, ev.classifier);
+  const ArmFollowingReport real_heldout = evaluate_samples(ev.heldout, ev.prompts, ev.classifier);
   const ArmFollowingReport real_raw = evaluate_samples(ev.raw, ev.prompts, ev.classifier);
   PromptEvalOptions po;
   po.samples = o.samples;
@@ -260,6 +266,7 @@ void run_eval(const EvalOptions& o) {
     sj.push_back({{"delay_s", d}, {"report", r.to_json()}});
   }
   print_report(real_blend, "## real: walks with the labelled arm motion blended on (the classifier's training windows)");
+  print_report(real_heldout, "## real: other walks with the labelled arm motion blended on (drawn after the training windows; not used to fit the classifier)");
   print_report(real_raw, "## real: the labelled arm clips as recorded (standing; not used to fit the classifier)");
   // Paraphrases: nearest prompt by cosine of the learned text embedding, and the classifier's
   // majority on generated motion.
@@ -283,7 +290,8 @@ void run_eval(const EvalOptions& o) {
   }
   if (!o.out.empty()) {
     nlohmann::json j = {{"generator", path}, {"samples", o.samples}, {"seed", o.seed}, {"generated", gen.to_json()},
-                        {"switches", sj}, {"real_blended", real_blend.to_json()}, {"real_raw", real_raw.to_json()}, {"paraphrases", pj},
+                        {"switches", sj}, {"probe", ev.classifier.config().name()}, {"real_blended", real_blend.to_json()},
+                        {"real_heldout", real_heldout.to_json()}, {"real_raw", real_raw.to_json()}, {"paraphrases", pj},
                         {"provenance", g.provenance()}};
     std::ofstream(o.out) << j.dump(2) << "\n";
     std::cout << "wrote " << o.out << "\n";
@@ -315,6 +323,9 @@ const bool registered = maskadapt::cli::register_command([](CLI::App& app) {
   train->add_option("--batch", topt->batch, "batch size (default 64)")->transform(integer_in(1, 65536));
   train->add_option("--stride", topt->stride, "frames between training windows (default 2)")
       ->transform(positive_integer(std::numeric_limits<int>::max()));
+  train->add_option("--transition-fraction", topt->transition_fraction,
+                    "share of each diffusion batch drawn from the windows where the behaviour switches (default 0: uniform)")
+      ->check(real_in(0, 1));
   train->add_option("--seed", topt->seed, "random seed")->transform(non_negative_integer());
   train->add_option("--guidance", topt->guidance, "classifier-free guidance weight stored with the model (default 5)")
       ->check(non_negative_real());
@@ -348,6 +359,8 @@ const bool registered = maskadapt::cli::register_command([](CLI::App& app) {
       ->check(non_negative_real());
   ev->add_option("--temperature", eopt->temperature, "sampling temperature in (0, 1] (default: the checkpoint's)")
       ->check(real_in(0, 1, true, false));
+  ev->add_option("--probe", eopt->probe, "the classifier: nearest-mean, lda[:SHRINKAGE] or knn[:K] (default knn)")
+      ->check(parsed_by([](const std::string& t) { (void)parse_arm_probe(t); }, "PROBE"));
   ev->add_option("--paraphrases", eopt->paraphrases, "prompts to map onto the pool (default: a built-in list)");
   ev->add_option("--out", eopt->out, "write the figures as JSON");
   ev->add_option("--save", eopt->save, "write the checkpoint again with the evaluated --guidance/--temperature as its defaults");

@@ -296,6 +296,11 @@ struct GeneratorTrainConfig {
   double lr = 1e-3;
   double max_grad_norm = 1.0;
   Index log_every = 100;
+  /// Stage 2: the share of every batch drawn from the dataset's transition windows (a behaviour
+  /// switching, e.g. walking arms → waving; `PrimitiveDataset::transition`), the rest uniformly
+  /// from all windows. 0 (default): uniform. The generator is asked for exactly these moments —
+  /// a prompt applied to a history that shows something else — and they are ~5 % of the windows.
+  double transition_fraction = 0.0;
 };
 
 struct GeneratorTrainReport {
@@ -313,6 +318,8 @@ inline GeneratorTrainReport train_generator(BuiltinGenerator& g, const Primitive
               data.frame_dim == g.vae().frame_dim(),
           "dataset windows do not match the generator's H, F or frame size", {{}, {}, "dataset"});
   require(data.size() >= 1 && cfg.batch >= 1, "need data and a positive batch", {{}, {}, "batch"});
+  require(cfg.transition_fraction >= 0.0 && cfg.transition_fraction <= 1.0, "transition_fraction must lie in [0, 1]",
+          {{}, {}, "transition_fraction"});
   using clock = std::chrono::steady_clock;
   auto say = [&](const std::string& s) { if (log) log(s); };
   GeneratorTrainReport rep;
@@ -370,10 +377,17 @@ inline GeneratorTrainReport train_generator(BuiltinGenerator& g, const Primitive
     double acc = 0.0;
     Index n_acc = 0;
     const Index K = g.denoiser().config().text_features, L = vae.latent_dim();
+    std::vector<Index> transitions;
+    for (std::size_t n = 0; n < data.transition.size(); ++n)
+      if (data.transition[n]) transitions.push_back(static_cast<Index>(n));
+    const double oversample = transitions.empty() ? 0.0 : cfg.transition_fraction;
     for (Index it = 0; it < cfg.diffusion_iterations; ++it) {
       const double el = std::chrono::duration<double>(clock::now() - t0).count();
       if (stage_budget > 0 && el > stage_budget) break;
-      const auto idx = sample_indices(data.size(), cfg.batch, rng);
+      auto idx = sample_indices(data.size(), cfg.batch, rng);
+      if (oversample > 0)
+        for (auto& i : idx)
+          if (rng.bernoulli(oversample)) i = transitions[rng.uniform_int(transitions.size())];
       MatrixXf x0(L, cfg.batch), tf = MatrixXf::Zero(K, cfg.batch);
       for (Index j = 0; j < cfg.batch; ++j) {
         const Index n = idx[static_cast<std::size_t>(j)];

@@ -43,6 +43,10 @@ struct PrimitiveDataset {
   std::vector<std::string> clip_names;               ///< (num clips)
   std::vector<int> label;                            ///< (N) index into label_texts: the window's texts
   std::vector<std::vector<std::string>> label_texts; ///< (num label sets) clip texts, or a segment's texts
+  /// (N) 1 where the window's first future frame lies less than H + F frames after the start of a
+  /// clip's second or later segment (the window shows a switch of behaviour, or its first
+  /// moments), else 0.
+  std::vector<char> transition;
 
   Index size() const { return history.cols(); }
 };
@@ -86,6 +90,7 @@ inline PrimitiveDataset make_primitive_dataset(const Skeleton& skel, const std::
       for (std::size_t k = 0; k < clip.segments.size(); ++k)
         if (clip.segments[k].start_frame <= s + H) seg = static_cast<int>(k);
       d.label.push_back(first_label + seg);
+      d.transition.push_back(seg > 0 && s + H - clip.segments[static_cast<std::size_t>(seg)].start_frame < W ? 1 : 0);
     }
   }
   require(!windows.empty(), "no clip is long enough for one window of " + std::to_string(W) + " frames",
