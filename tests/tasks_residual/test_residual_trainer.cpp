@@ -237,17 +237,21 @@ ResidualSetup tracking_setup(const Data& d, const std::vector<BodyPart>& parts) 
 // Stage-2 resume: 2 iterations, checkpoint, a fresh trainer loads it and runs 2 more — the
 // networks, optimiser moments and the next statistics equal those of 4 uninterrupted iterations,
 // bit for bit (the tiny sim saves its state).
+// (with the KL-adaptive actor learning rate of the cpu preset: the rate moves every minibatch and
+// must come back from the checkpoint)
 TEST(ResidualTrainer, ResumeContinuesBitExactly) {
   MASKADAPT_REQUIRE_REQUESTED_BLAS_CORE();
   for (const std::string task : {"composition", "tracking"}) {
     Data d;
     const auto fall = [](const Skeleton& s) { return FallCriteria::for_skeleton(s, {"l_leg", "r_leg"}, "head", 0.8); };
+    ResidualTrainConfig cfg = tiny_config(task, "ours");
+    cfg.rl.ppo.actor_lr_schedule = "adaptive";
     auto make = [&](TinyWalkerSim& sim) {
       const auto parts = observation_parts(sim.skeleton());
       return std::make_unique<ResidualTrainer<TinyWalkerSim>>(
           sim, upright(sim.skeleton()), tiny_base(sim.skeleton()),
-          task == "tracking" ? tracking_setup(d, parts) : composition_setup(d, "ours", parts), tiny_config(task, "ours"),
-          nullptr, fall(sim.skeleton()));
+          task == "tracking" ? tracking_setup(d, parts) : composition_setup(d, "ours", parts), cfg, nullptr,
+          fall(sim.skeleton()));
     };
     TinyWalkerSim sim_a(4), sim_b(4);
     auto straight = make(sim_a);
@@ -270,7 +274,9 @@ TEST(ResidualTrainer, ResumeContinuesBitExactly) {
       EXPECT_EQ(st.disc_loss, ref[static_cast<std::size_t>(i)].disc_loss) << task << " iteration " << i + 1;
       EXPECT_EQ(st.disc_reward, ref[static_cast<std::size_t>(i)].disc_reward) << task << " iteration " << i + 1;
       EXPECT_EQ(st.extra, ref[static_cast<std::size_t>(i)].extra) << task << " iteration " << i + 1;
+      EXPECT_EQ(st.actor_lr, ref[static_cast<std::size_t>(i)].actor_lr) << task << " iteration " << i + 1;
     }
+    EXPECT_NE(ref[1].actor_lr, cfg.rl.ppo.actor_lr) << task << ": the adaptive schedule never moved the rate";
     EXPECT_TRUE(same_bits(resumed->policy().residual().mean_net.params(), straight->policy().residual().mean_net.params())) << task;
     EXPECT_TRUE(same_bits(resumed->policy().gain().params(), straight->policy().gain().params())) << task;
     Checkpoint a, b;

@@ -51,6 +51,7 @@
 #include <maskadapt/nn/adam.hpp>
 #include <maskadapt/nn/popart.hpp>
 #include <maskadapt/rl/actor_critic.hpp>
+#include <maskadapt/rl/adaptive_lr.hpp>
 #include <maskadapt/rl/discriminator.hpp>
 #include <maskadapt/rl/gae.hpp>
 #include <maskadapt/rl/ppo_loss.hpp>
@@ -485,6 +486,7 @@ class ResidualTrainer {
     for (std::size_t i = 0; i < blocks.size(); ++i) c.put("state/actor/" + std::to_string(i), blocks[i]->storage());
     c.put("state/critic", critic_.net.block().storage());
     c.put_int("state/actor_steps", actor_opt_.step_count());
+    c.put_double("state/actor_lr", actor_opt_.config().lr);
     c.put_int("state/critic_steps", critic_opt_.step_count());
     for (Index k = 0; k < discs_.size(); ++k) {
       auto& d = self.discs_.members[static_cast<std::size_t>(k)];
@@ -538,6 +540,11 @@ class ResidualTrainer {
     for (std::size_t i = 0; i < blocks.size(); ++i) c.copy_to<float>("state/actor/" + std::to_string(i), blocks[i]->storage());
     c.copy_to<float>("state/critic", critic_.net.block().storage());
     actor_opt_.set_step_count(c.get_int("state/actor_steps"));
+    if (c.contains("state/actor_lr")) {  // (checkpoints before stage 2's adaptive schedule: the config's rate)
+      const double lr = c.get_double("state/actor_lr");
+      require(std::isfinite(lr) && lr >= 0, "actor learning rate must be finite and >= 0", {c.source(), std::nullopt, "state/actor_lr"});
+      actor_opt_.config().lr = lr;
+    }
     critic_opt_.set_step_count(c.get_int("state/critic_steps"));
     for (Index k = 0; k < discs_.size(); ++k) {
       auto& d = discs_.members[static_cast<std::size_t>(k)];
@@ -789,6 +796,8 @@ class ResidualTrainer {
         policy_.backward(cache_, dmu);
         const auto ar = actor_opt_.step(policy_.trainable_blocks());
         if (!ar.applied) ++st.skipped_updates;
+        if (cfg_.rl.ppo.actor_lr_schedule == "adaptive")  // next minibatch's step sized by this one's KL (as stage 1)
+          actor_opt_.config().lr = rl::adapt_learning_rate(actor_opt_.config().lr, sur.approx_kl, cfg_.rl.ppo.adaptive_lr);
         critic_.net.zero_grad();
         critic_.normalize(cin, norm_cin);
         const MatrixXf& v = critic_.net.forward_train(norm_cin, critic_cache_);
@@ -813,7 +822,7 @@ class ResidualTrainer {
     st.grad_norm = sum_gn / count;
     st.entropy = nn::gaussian_entropy<float>(Eigen::Map<const MatrixXf>(policy_.residual().log_std.params().data(),
                                                                          policy_.action_dim(), 1))(0);
-    st.actor_lr = actor_opt_.config().lr;  // (stage 2 keeps the configured rate: no adaptive schedule yet)
+    st.actor_lr = actor_opt_.config().lr;  // moves under ppo.actor_lr_schedule = adaptive
   }
 
   // ---- 4. discriminators ------------------------------------------------------------------
