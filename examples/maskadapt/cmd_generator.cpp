@@ -55,6 +55,7 @@ struct TrainOptions {
   double minutes = 0.0, arm_seconds = 120.0, guidance = -1.0, temperature = -1.0;  ///< < 0: the defaults (5, 1)
   double transition_fraction = 0.0;
   long long iterations = 2000;
+  long long vae_iterations = 0, diffusion_iterations = 0;  ///< > 0: this stage's count instead of --iterations
   long long batch = 64;
   unsigned long long seed = 1;
   int stride = 2;
@@ -111,7 +112,8 @@ void run_train(const TrainOptions& o) {
             << g.vae().decoder().num_params() << ", denoiser " << g.denoiser().network().num_params()
             << ", text projection " << g.denoiser().projection().num_params() << "\n";
   GeneratorTrainConfig tc;
-  tc.vae_iterations = tc.diffusion_iterations = o.iterations;
+  tc.vae_iterations = o.vae_iterations > 0 ? o.vae_iterations : o.iterations;
+  tc.diffusion_iterations = o.diffusion_iterations > 0 ? o.diffusion_iterations : o.iterations;
   if (o.minutes > 0) {
     tc.max_seconds = 60.0 * o.minutes;
     tc.vae_iterations = tc.diffusion_iterations = 1'000'000'000;
@@ -318,6 +320,13 @@ const bool registered = maskadapt::cli::register_command([](CLI::App& app) {
   auto* minutes = train->add_option("--minutes", topt->minutes, "wall-clock budget, split between the VAE and the diffusion stage")
                       ->check(positive_real());
   train->add_option("--iterations", topt->iterations, "iterations per stage (default 2000)")
+      ->excludes(minutes)
+      ->transform(positive_integer());
+  train->add_option("--vae-iterations", topt->vae_iterations, "iterations of the VAE stage (default: --iterations)")
+      ->excludes(minutes)
+      ->transform(positive_integer());
+  train->add_option("--diffusion-iterations", topt->diffusion_iterations,
+                    "iterations of the diffusion stage (default: --iterations); with --vae-iterations, a run's budget independent of the machine's load")
       ->excludes(minutes)
       ->transform(positive_integer());
   train->add_option("--batch", topt->batch, "batch size (default 64)")->transform(integer_in(1, 65536));
