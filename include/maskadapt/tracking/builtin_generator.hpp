@@ -299,7 +299,8 @@ struct GeneratorTrainConfig {
   /// Stage 2: the share of every batch drawn from the dataset's transition windows (a behaviour
   /// switching, e.g. walking arms → waving; `PrimitiveDataset::transition`), the rest uniformly
   /// from all windows. 0 (default): uniform. The generator is asked for exactly these moments —
-  /// a prompt applied to a history that shows something else — and they are ~5 % of the windows.
+  /// a prompt applied to a history that shows something else — and they are ~10 % of the windows
+  /// (4,732 of 47,768 in the arm-switch corpus).
   double transition_fraction = 0.0;
 };
 
