@@ -68,7 +68,7 @@ struct GenerateOptions {
 };
 
 struct EvalOptions {
-  std::string checkpoint, data, out, save, probe = "knn";
+  std::string checkpoint, data, out, save, probe;  ///< probe empty: the library default (ArmProbeConfig{})
   std::vector<std::string> prompts, paraphrases;
   long long samples = 10;
   unsigned long long seed = 1;
@@ -235,7 +235,8 @@ void run_eval(const EvalOptions& o) {
   if (o.temperature > 0) g.config().temperature = o.temperature;
   const std::string root = data_root(o.data);
   Rng data_rng(12345);
-  const GeneratorEvalSet ev = make_generator_eval_set(root, skel, data_rng, parse_arm_probe(o.probe, "--probe"));
+  const GeneratorEvalSet ev = make_generator_eval_set(root, skel, data_rng,
+                                                         o.probe.empty() ? ArmProbeConfig{} : parse_arm_probe(o.probe, "--probe"));
   std::vector<std::string> prompts = o.prompts.empty() ? ev.prompts : o.prompts;
   for (const auto& p : prompts)
     require(std::find(ev.prompts.begin(), ev.prompts.end(), p) != ev.prompts.end(),
@@ -368,7 +369,7 @@ const bool registered = maskadapt::cli::register_command([](CLI::App& app) {
       ->check(non_negative_real());
   ev->add_option("--temperature", eopt->temperature, "sampling temperature in (0, 1] (default: the checkpoint's)")
       ->check(real_in(0, 1, true, false));
-  ev->add_option("--probe", eopt->probe, "the classifier: nearest-mean, lda[:SHRINKAGE] or knn[:K] (default knn)")
+  ev->add_option("--probe", eopt->probe, "the classifier: nearest-mean, lda[:SHRINKAGE] or knn[:K] (default: knn, 1-nearest neighbour)")
       ->check(parsed_by([](const std::string& t) { (void)parse_arm_probe(t); }, "PROBE"));
   ev->add_option("--paraphrases", eopt->paraphrases, "prompts to map onto the pool (default: a built-in list)");
   ev->add_option("--out", eopt->out, "write the figures as JSON");
