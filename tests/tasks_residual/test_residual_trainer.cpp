@@ -5,6 +5,9 @@
 #include "../train/tiny_sim.hpp"
 
 #include <maskadapt/train/residual_eval.hpp>
+#include <maskadapt/tasks/heading.hpp>
+#include <maskadapt/tasks/location.hpp>
+#include <maskadapt/tasks/tracking_task.hpp>
 #include <maskadapt/train/residual_trainer.hpp>
 
 #include <gtest/gtest.h>
@@ -104,8 +107,9 @@ struct TinyGenerator {
   }
 };
 
-ResidualSetup composition_setup(const Data& d, const std::string& method, const std::vector<BodyPart>& obs_parts) {
-  ResidualSetup s;
+template <class Sim = TinyWalkerSim>
+ResidualSetup<Sim> composition_setup(const Data& d, const std::string& method, const std::vector<BodyPart>& obs_parts) {
+  ResidualSetup<Sim> s;
   const PartMask arms = PartMask::parse("arms"), legs = PartMask::parse("legs");
   if (method == "ours") {
     s.masks = {arms, legs};
@@ -176,13 +180,13 @@ TEST(ResidualTrainer, TrackingRunConsumesGoalsAndRewardsTheDesignatedParts) {
   TinyWalkerSim sim(4);
   const auto parts = observation_parts(sim.skeleton());
   const PartMask arms = PartMask::parse("arms");
-  ResidualSetup s;
+  ResidualSetup<TinyWalkerSim> s;
   s.masks = {arms};
   const MotionLibrary* base = &d.base;
   s.discriminators.push_back({"imitation", 0.5, tasks::window_rows(parts, ~arms), false,
                               [base](Rng& r, Index B, MatrixXf& w, MatrixXf&) { w = base->sample_amp_windows(r, static_cast<int>(B)); }, {}});
   auto gen = std::make_shared<TinyGenerator>();
-  TrackingSource t;
+  tasks::TrackingTaskConfig t;
   t.designated = arms;
   t.goal_steps = 2;
   t.sample_every = 2;
@@ -194,7 +198,7 @@ TEST(ResidualTrainer, TrackingRunConsumesGoalsAndRewardsTheDesignatedParts) {
     b.refill(*gen, {"raise arms", "wave hands"},
              [base](Rng&) { return tracking::trajectory_from_library(*base, 0, 0.0, 1); }, 4, 40, r);
   };
-  s.tracking = t;
+  s.goal = tasks::TrackingTask(sim.skeleton(), t, 4);
   ResidualTrainer<TinyWalkerSim> tr(sim, upright(sim.skeleton()), tiny_base(sim.skeleton()), s,
                                     tiny_config("tracking", "ours"), nullptr,
                                     FallCriteria::for_skeleton(sim.skeleton(), {"l_leg", "r_leg"}, "head", 0.8));
@@ -202,7 +206,7 @@ TEST(ResidualTrainer, TrackingRunConsumesGoalsAndRewardsTheDesignatedParts) {
   EXPECT_EQ(tr.policy().goal_dim(), tracking::goal_dim(sim.skeleton(), arms, 2));
   for (int i = 0; i < 3; ++i) tr.iterate();
   EXPECT_EQ(refills, 2);  // at construction and before iteration 3
-  const double r = tr.last_tracking_reward();
+  const double r = tr.last_goal_reward();
   EXPECT_TRUE(std::isfinite(r));
   EXPECT_GT(r, 0.0);
   EXPECT_LE(r, 1.0);
@@ -210,15 +214,11 @@ TEST(ResidualTrainer, TrackingRunConsumesGoalsAndRewardsTheDesignatedParts) {
 
 namespace {
 
-ResidualSetup tracking_setup(const Data& d, const std::vector<BodyPart>& parts) {
+tasks::TrackingTaskConfig tiny_tracking_config(const Data& d) {
   const PartMask arms = PartMask::parse("arms");
-  ResidualSetup s;
-  s.masks = {arms};
   const MotionLibrary* base = &d.base;
-  s.discriminators.push_back({"imitation", 0.5, tasks::window_rows(parts, ~arms), false,
-                              [base](Rng& r, Index B, MatrixXf& w, MatrixXf&) { w = base->sample_amp_windows(r, static_cast<int>(B)); }, {}});
   auto gen = std::make_shared<TinyGenerator>();
-  TrackingSource t;
+  tasks::TrackingTaskConfig t;
   t.designated = arms;
   t.goal_steps = 2;
   t.sample_every = 3;  // a refill happens inside the resumed half
@@ -228,8 +228,23 @@ ResidualSetup tracking_setup(const Data& d, const std::vector<BodyPart>& parts) 
     b.refill(*gen, {"raise arms", "wave hands"},
              [base](Rng& rr) { return tracking::trajectory_from_library(*base, 0, rr.uniform(0.0, 1.0), 1); }, 3, 40, r);
   };
-  s.tracking = t;
+  return t;
+}
+
+template <class Sim>
+ResidualSetup<Sim> tracking_setup(const Data& d, const Sim& sim, const tasks::TrackingTaskConfig& t) {
+  const PartMask arms = PartMask::parse("arms");
+  ResidualSetup<Sim> s;
+  s.masks = {arms};
+  const MotionLibrary* base = &d.base;
+  s.discriminators.push_back({"imitation", 0.5, tasks::window_rows(observation_parts(sim.skeleton()), ~arms), false,
+                              [base](Rng& r, Index B, MatrixXf& w, MatrixXf&) { w = base->sample_amp_windows(r, static_cast<int>(B)); }, {}});
+  s.goal = tasks::TrackingTask(sim.skeleton(), t, static_cast<Index>(sim.num_envs()));
   return s;
+}
+template <class Sim>
+ResidualSetup<Sim> tracking_setup(const Data& d, const Sim& sim) {
+  return tracking_setup(d, sim, tiny_tracking_config(d));
 }
 
 }  // namespace
@@ -241,17 +256,28 @@ ResidualSetup tracking_setup(const Data& d, const std::vector<BodyPart>& parts) 
 // must come back from the checkpoint)
 TEST(ResidualTrainer, ResumeContinuesBitExactly) {
   MASKADAPT_REQUIRE_REQUESTED_BLAS_CORE();
-  for (const std::string task : {"composition", "tracking"}) {
+  for (const std::string task : {"composition", "tracking", "location", "heading"}) {
     Data d;
     const auto fall = [](const Skeleton& s) { return FallCriteria::for_skeleton(s, {"l_leg", "r_leg"}, "head", 0.8); };
     ResidualTrainConfig cfg = tiny_config(task, "ours");
     cfg.rl.ppo.actor_lr_schedule = "adaptive";
     auto make = [&](TinyWalkerSim& sim) {
       const auto parts = observation_parts(sim.skeleton());
-      return std::make_unique<ResidualTrainer<TinyWalkerSim>>(
-          sim, upright(sim.skeleton()), tiny_base(sim.skeleton()),
-          task == "tracking" ? tracking_setup(d, parts) : composition_setup(d, "ours", parts), cfg, nullptr,
-          fall(sim.skeleton()));
+      ResidualSetup<TinyWalkerSim> setup = task == "tracking" ? tracking_setup(d, sim) : composition_setup(d, "ours", parts);
+      if (task == "location") {  // goals resampled every 3–5 steps: draws inside the resumed half
+        tasks::LocationConfig lc;
+        lc.schedule = {3, 5};
+        lc.seed = 11;
+        setup.goal = tasks::LocationTask(lc, 4);
+      } else if (task == "heading") {
+        tasks::HeadingConfig hc;
+        hc.schedule = {3, 5};
+        hc.success_window = 2;
+        hc.seed = 12;
+        setup.goal = tasks::HeadingTask(hc, 4);
+      }
+      return std::make_unique<ResidualTrainer<TinyWalkerSim>>(sim, upright(sim.skeleton()), tiny_base(sim.skeleton()),
+                                                              std::move(setup), cfg, nullptr, fall(sim.skeleton()));
     };
     TinyWalkerSim sim_a(4), sim_b(4);
     auto straight = make(sim_a);
@@ -289,6 +315,12 @@ TEST(ResidualTrainer, ResumeContinuesBitExactly) {
       for (const auto& st : ref) terminations += st.extra.at("tracking_terminations");
       EXPECT_GT(terminations, 0) << "the windowed termination never fired; the test would not cover its reset";
     }
+    if (task == "location" || task == "heading") {  // goals were resampled (trials ended) after the resume
+      ASSERT_TRUE(ref[3].extra.count("trials")) << task;
+      EXPECT_GT(ref[3].extra.at("trials"), 0) << task;
+      EXPECT_TRUE(ref[3].extra.count(task + "_reward")) << task;
+      EXPECT_EQ(straight->num_objectives(), 2) << task;
+    }
   }
 }
 
@@ -298,9 +330,10 @@ TEST(ResidualTrainer, TrackingTerminationResetsTheEnv) {
   Data d;
   TinyWalkerSim sim(4);
   const auto parts = observation_parts(sim.skeleton());
-  ResidualSetup s = tracking_setup(d, parts);
-  s.tracking->term_threshold = 2.0;  // exp(−e) ≤ 1 < 2: fires as soon as the window is full
-  s.tracking->term_window = 3;
+  tasks::TrackingTaskConfig t = tiny_tracking_config(d);
+  t.term_threshold = 2.0;  // exp(−e) ≤ 1 < 2: fires as soon as the window is full
+  t.term_window = 3;
+  ResidualSetup<TinyWalkerSim> s = tracking_setup(d, sim, t);
   auto cfg = tiny_config("tracking", "ours");
   cfg.rl.env.episode_seconds = 100.0;  // no truncation
   cfg.rl.env.early_termination = false;  // no falls
@@ -378,7 +411,8 @@ TEST(ResidualTrainer, NormalisedBaseSendsOffsetPlusScaleOfTheCompositeToTheSimul
     RecordingSim sim(4);
     const auto parts = observation_parts(sim.skeleton());
     auto cfg = tiny_config(k.task, k.method);
-    ResidualSetup setup = k.task == "tracking" ? tracking_setup(d, parts) : composition_setup(d, k.method == "ours" ? "ours" : "cml", parts);
+    ResidualSetup<RecordingSim> setup = k.task == "tracking" ? tracking_setup(d, sim)
+                                                             : composition_setup<RecordingSim>(d, k.method == "ours" ? "ours" : "cml", parts);
     FrozenBase base = normalised_base(sim.skeleton());
     if (k.method == "scratch") {
       setup.masks = {PartMask::all()};
@@ -541,7 +575,7 @@ TEST(ResidualTrainer, NormalisedBaseResumesBitExactlyWithTheCheckpointsActionSpa
       FrozenBase base = placeholder ? FrozenBase{tiny_base(sim.skeleton()), {}} : normalised_base(sim.skeleton());
       return std::make_unique<ResidualTrainer<RecordingSim>>(
           sim, upright(sim.skeleton()), std::move(base),
-          task == "tracking" ? tracking_setup(d, parts) : composition_setup(d, "ours", parts), tiny_config(task, "ours"), nullptr,
+          task == "tracking" ? tracking_setup(d, sim) : composition_setup<RecordingSim>(d, "ours", parts), tiny_config(task, "ours"), nullptr,
           tiny_fall(sim.skeleton()));
     };
     RecordingSim sim_a(4), sim_b(4), sim_c(4);

@@ -2,11 +2,12 @@
 /// \file residual_trainer.hpp
 /// Stage 2: trains a residual policy (adapt/residual_policy.hpp) on top of a frozen base policy,
 /// for motion composition (ours: one mask-conditioned discriminator; cml: one discriminator per
-/// body-part group) and for partial tracking (imitation discriminator on the non-designated
-/// parts + tracking reward on the designated parts).
+/// body-part group), for partial tracking (imitation discriminator on the non-designated parts +
+/// the tracking task) and for the goal-driven tasks (location, heading, strike).
 ///
 /// Everything is one code path over a list of discriminators (rl::DiscriminatorSet) plus an
-/// optional tracking objective; each produces one reward row = one PPO objective. The critic has
+/// optional goal task (tasks/goal_task.hpp: tracking, location, heading, strike — any type that
+/// models `tasks::GoalTask`); each produces one reward row = one PPO objective. The critic has
 /// one output per objective, normalised by PopArt; advantages are normalised per objective and
 /// combined with the objective weights (a single objective is just normalised).
 ///
@@ -15,9 +16,9 @@
 ///     frozen base on the inference path; composite action â (masked DoFs only) in the base's
 ///     action units, sent to the simulator as the PD targets offset + scale ⊙ â (the base's
 ///     action space; the identity sends â itself); the critic sees [s ; m ; g]; masks per episode
-///     from a set (optionally switching mid-episode); tracking goals consumed one frame per step
-///     from the goal buffer;
-///  2. rewards: row k = −log(max(1 − D_k(window_k | m), 1e−4)); tracking row exp(−‖q* − q‖²);
+///     from a set (optionally switching mid-episode); g the goal task's observation; after each
+///     step the goal task gives its reward and may end the episode (the env is then reset);
+///  2. rewards: row k = −log(max(1 − D_k(window_k | m), 1e−4)); the goal task's row last;
 ///  3. GAE per objective (PopArt-denormalised values), PPO on the residual and the gain;
 ///  4. discriminator steps: real samples from each source (blends for ours), fake = agent windows
 ///     (+ replay) (+ negative-expert blends with mismatched masks for conditioned members).
@@ -39,10 +40,10 @@
 ///
 /// Checkpoints hold everything needed to continue bit-exactly when the simulator can save its
 /// state (tasks::StateSavingSimulator): networks, normalisers, PopArt, Adam moments and step
-/// counts, replay buffers, the trainer's, the task's and the mask streams' RNG states, and for
-/// tracking the goal buffer, each env's goal position and windowed-termination history.
-/// The tracking task's windowed early termination ends the episode and physically resets the env
-/// (ImitationTask::restart_env).
+/// counts, replay buffers, the trainer's, the task's and the mask streams' RNG states, and the goal
+/// task's own state (its `save`, under "state/goal_task/").
+/// A goal task that ends an episode (tracking's windowed termination, strike's foreign contact)
+/// physically resets the env (ImitationTask::restart_env).
 #include <maskadapt/adapt/residual_policy.hpp>
 #include <maskadapt/core/checkpoint.hpp>
 #include <maskadapt/core/error.hpp>
@@ -58,11 +59,12 @@
 #include <maskadapt/rl/replay_buffer.hpp>
 #include <maskadapt/rl/rollout_buffer.hpp>
 #include <maskadapt/tasks/composition.hpp>
+#include <maskadapt/tasks/goal_task.hpp>
 #include <maskadapt/tasks/imitation.hpp>
-#include <maskadapt/tracking/goals.hpp>
 #include <maskadapt/train/base_policy.hpp>
 #include <maskadapt/train/config.hpp>
 #include <maskadapt/train/progress.hpp>
+#include <maskadapt/train/residual_config.hpp>
 #include <maskadapt/train/task_state.hpp>
 
 #include <nlohmann/json.hpp>
@@ -76,207 +78,6 @@ namespace maskadapt::train {
 
 using RowVectorXf = RowVectorX<float>;
 
-/// Stage-2 settings; `rl` carries run / env / ppo / disc / net sections of the stage-1 format
-/// (env.motions = the base motion set A; net.critic_hidden / disc_hidden size the new critic and
-/// discriminators).
-struct ResidualTrainConfig {
-  BaseTrainConfig rl;
-  std::string task = "composition";   ///< composition | tracking
-  std::string method = "ours";        ///< ours | cml | scratch (no base: a zero base, every DoF residual)
-  std::vector<std::string> new_motions;            ///< M_new (composition)
-  std::vector<std::string> masks = {"lower_body"}; ///< training mask set (cml / tracking: the first = fixed region)
-  double switch_rate = 0.0;           ///< mid-episode mask switches per second (ours)
-  double negative_fraction = 0.25;    ///< share of the fake batch that is negative-expert blends (ours)
-  std::vector<double> objective_weights;  ///< empty: cml 0.5/0.5, tracking 0.5/0.5, ours 1
-  std::vector<Index> residual_hidden = {256, 256};
-  std::string gain = "scalar";        ///< fixed | scalar | per_dof
-  double init_gain = 1.0;
-  // tracking
-  std::string designated = "arms";    ///< parts that follow the generated trajectory
-  Index goal_steps = 2;               ///< next target frames in the goal
-  int sample_every = 20;              ///< refill the goal buffer every N iterations
-  int goal_trajectories = 16;         ///< trajectories per refill
-  double term_window_s = 1.0;         ///< windowed-average early termination window (s)
-  double term_threshold = 0.05;       ///< … ends the goal episode when the mean tracking reward < this
-  std::string generator;              ///< generator checkpoint (CLI)
-  std::string base_checkpoint;        ///< stage-1 checkpoint (CLI; recorded for provenance)
-
-  void validate() const {
-    rl.validate("residual config");
-    require(task == "composition" || task == "tracking", "expected composition or tracking", {{}, {}, "task"});
-    require(method == "ours" || method == "cml" || method == "scratch", "expected ours, cml or scratch", {{}, {}, "method"});
-    require(!masks.empty(), "need at least one mask", {{}, {}, "masks"});
-    require(switch_rate >= 0, "must be ≥ 0", {{}, {}, "switch_rate"});
-    require(negative_fraction >= 0 && negative_fraction < 1, "must be in [0, 1)", {{}, {}, "negative_fraction"});
-    require(goal_steps >= 1 && sample_every >= 1 && goal_trajectories >= 1, "tracking counts must be ≥ 1", {{}, {}, "tracking"});
-    require(term_window_s > 0, "must be > 0", {{}, {}, "term_window_s"});
-    (void)adapt::gain_mode_from_name(gain);
-  }
-};
-
-inline nlohmann::json to_json(const ResidualTrainConfig& c) {
-  return {{"rl", to_json(c.rl)},
-          {"task", c.task},
-          {"method", c.method},
-          {"new_motions", c.new_motions},
-          {"masks", c.masks},
-          {"switch_rate", c.switch_rate},
-          {"negative_fraction", c.negative_fraction},
-          {"objective_weights", c.objective_weights},
-          {"residual_hidden", c.residual_hidden},
-          {"gain", c.gain},
-          {"init_gain", c.init_gain},
-          {"designated", c.designated},
-          {"goal_steps", c.goal_steps},
-          {"sample_every", c.sample_every},
-          {"goal_trajectories", c.goal_trajectories},
-          {"term_window_s", c.term_window_s},
-          {"term_threshold", c.term_threshold},
-          {"generator", c.generator},
-          {"base_checkpoint", c.base_checkpoint}};
-}
-
-inline ResidualTrainConfig residual_config_from_json(const nlohmann::json& j, const std::string& file = {}) {
-  ResidualTrainConfig c;
-  try {
-    c.rl = config_from_json(j.at("rl"), file);
-    c.task = j.at("task");
-    c.method = j.at("method");
-    c.new_motions = j.at("new_motions").get<std::vector<std::string>>();
-    c.masks = j.at("masks").get<std::vector<std::string>>();
-    c.switch_rate = j.at("switch_rate");
-    c.negative_fraction = j.at("negative_fraction");
-    c.objective_weights = j.at("objective_weights").get<std::vector<double>>();
-    c.residual_hidden = j.at("residual_hidden").get<std::vector<Index>>();
-    c.gain = j.at("gain");
-    c.init_gain = j.at("init_gain");
-    c.designated = j.at("designated");
-    c.goal_steps = j.at("goal_steps");
-    c.sample_every = j.at("sample_every");
-    c.goal_trajectories = j.at("goal_trajectories");
-    c.term_window_s = j.at("term_window_s");
-    c.term_threshold = j.at("term_threshold");
-    c.generator = j.at("generator");
-    c.base_checkpoint = j.at("base_checkpoint");
-  } catch (const nlohmann::json::exception& e) {
-    throw Error(std::string("bad residual config: ") + e.what(), {file, std::nullopt, "residual_config"});
-  }
-  c.validate();
-  return c;
-}
-
-/// Activation by config name (relu | elu | silu | tanh).
-inline nn::Activation residual_activation(const std::string& name) {
-  if (name == "relu") return nn::Activation::ReLU;
-  if (name == "elu") return nn::Activation::ELU;
-  if (name == "silu") return nn::Activation::SiLU;
-  if (name == "tanh") return nn::Activation::Tanh;
-  throw Error("unknown activation '" + name + "'", {{}, std::nullopt, "net.activation"});
-}
-
-inline void save_norm(Checkpoint& c, const std::string& name, const nn::RunningNormalizer<float>& n) {
-  c.put_double(name + "/count", n.count());
-  c.put(name + "/mean", n.mean());
-  c.put(name + "/m2", n.m2());
-}
-inline void load_norm(const Checkpoint& c, const std::string& name, nn::RunningNormalizer<float>& n) {
-  n.set_state(c.get_double(name + "/count"), c.get_vector<double>(name + "/mean", n.dim()),
-              c.get_vector<double>(name + "/m2", n.dim()));
-}
-
-/// A frozen stage-1 actor and how its actions become PD targets.
-struct FrozenBase {
-  rl::GaussianActor<float> actor;
-  tasks::ActionSpace actions;  ///< PD target = offset + scale ⊙ a (identity: a is the target)
-};
-
-/// The stage-1 actor stored in a base checkpoint (architecture from its "config" section) and its
-/// action space (actor/action_offset, actor/action_scale; absent ⇒ identity). Reads only the
-/// sections `config`, `actor/params`, `actor/log_std`, `actor/norm/…`, `actor/action_offset`,
-/// `actor/action_scale`, so it works on a train-base checkpoint and on a policy-only export.
-inline FrozenBase load_base_actor(const Checkpoint& ck, Index obs_dim, Index action_dim) {
-  const BaseTrainConfig bc = config_from_string(ck.get_string("config"), "base checkpoint (config)");
-  rl::ActorCriticConfig ac;
-  ac.policy_input_dim = obs_dim + kNumParts;
-  ac.critic_input_dim = obs_dim;
-  ac.action_dim = action_dim;
-  ac.actor_hidden = bc.net.actor_hidden;
-  ac.activation = residual_activation(bc.net.activation);
-  ac.init_log_std = bc.net.init_log_std;
-  Rng dummy(0);
-  FrozenBase out{rl::GaussianActor<float>(ac, dummy), {}};
-  ck.copy_to<float>("actor/params", out.actor.mean_net.params());
-  ck.copy_to<float>("actor/log_std", out.actor.log_std.params());
-  load_norm(ck, "actor/norm", out.actor.normalizer);
-  load_hidden_groups(ck, out.actor);  // (a base trained with mask.hidden_value = mean)
-  if (ck.contains("actor/action_offset")) out.actions.offset = ck.get_vector<float>("actor/action_offset", action_dim);
-  if (ck.contains("actor/action_scale")) out.actions.scale = ck.get_vector<float>("actor/action_scale", action_dim);
-  out.actions.validate(action_dim, ck.source().empty() ? "actor/action" : ck.source() + ": actor/action");
-  return out;
-}
-
-/// The residual network settings of a run. Tracking with method cml: the base sees the full
-/// observation (no mask invariance; see adapt::ResidualConfig::masked_base_input).
-inline adapt::ResidualConfig residual_net_config(const ResidualTrainConfig& c, const Skeleton& skel) {
-  adapt::ResidualConfig rc;
-  rc.hidden = c.residual_hidden;
-  rc.activation = residual_activation(c.rl.net.activation);
-  rc.gain = adapt::gain_mode_from_name(c.gain);
-  rc.init_gain = c.init_gain;
-  rc.masked_base_input = !(c.task == "tracking" && c.method == "cml");
-  if (c.task == "tracking") rc.goal_dim = tracking::goal_dim(skel, PartMask::parse(c.designated, "designated"), c.goal_steps);
-  return rc;
-}
-
-/// A zero base actor for the from-scratch comparison: every DoF residual, base action 0.
-inline rl::GaussianActor<float> scratch_base_actor(Index obs_dim, Index action_dim) {
-  rl::ActorCriticConfig ac;
-  ac.policy_input_dim = obs_dim + kNumParts;
-  ac.critic_input_dim = obs_dim;
-  ac.action_dim = action_dim;
-  ac.actor_hidden = {8};
-  Rng r(0);
-  rl::GaussianActor<float> a(ac, r);
-  a.mean_net.params().setZero();
-  return a;
-}
-
-/// The scratch method's base: the zero actor and the run config's action space (c.rl.net.action_*,
-/// which must be resolved: resolve_action_space; zero / one ⇒ the identity, as before).
-inline FrozenBase scratch_base(const ResidualTrainConfig& c, Index obs_dim, Index action_dim) {
-  return {scratch_base_actor(obs_dim, action_dim), action_space_of(c.rl, action_dim)};
-}
-
-/// An actor with the architecture of a run's frozen base (c.rl.net, which train-residual copies
-/// from the base checkpoint; scratch: the zero base). Parameters are placeholders until a
-/// checkpoint's base/ sections are loaded.
-inline rl::GaussianActor<float> base_actor_like(const ResidualTrainConfig& c, Index obs_dim, Index action_dim) {
-  if (c.method == "scratch") return scratch_base_actor(obs_dim, action_dim);
-  rl::ActorCriticConfig ac;
-  ac.policy_input_dim = obs_dim + kNumParts;
-  ac.critic_input_dim = obs_dim;
-  ac.action_dim = action_dim;
-  ac.actor_hidden = c.rl.net.actor_hidden;
-  ac.activation = residual_activation(c.rl.net.activation);
-  ac.init_log_std = c.rl.net.init_log_std;
-  Rng r(0);
-  return rl::GaussianActor<float>(ac, r);
-}
-
-/// The residual policy (with its frozen base and the base's action space, base/actor/action_*)
-/// stored in a train-residual checkpoint; `config` receives the run's config.
-inline adapt::ResidualPolicy<float> residual_policy_from_checkpoint(const Checkpoint& ck, const Skeleton& skel,
-                                                                    ResidualTrainConfig* config = nullptr) {
-  const ResidualTrainConfig c = residual_config_from_json(nlohmann::json::parse(ck.get_string("residual_config")), "checkpoint");
-  const Index obs_dim = observation_dim(skel), A = skel.num_dofs();
-  const adapt::ResidualConfig rc = residual_net_config(c, skel);
-  Rng init(0);
-  adapt::ResidualPolicy<float> pol(base_actor_like(c, obs_dim, A), obs_dim, action_parts(skel), rc, init);
-  pol.load(ck, true);
-  if (config) *config = c;
-  return pol;
-}
-
 /// One reward source backed by a discriminator.
 struct DiscriminatorSource {
   std::string name;
@@ -289,58 +90,44 @@ struct DiscriminatorSource {
   std::function<void(Rng&, Index, MatrixXf&, MatrixXf&)> negative;
 };
 
-/// The partial-tracking objective.
-struct TrackingSource {
-  PartMask designated;
-  Index goal_steps = 2;
-  double weight = 0.5;
-  int sample_every = 20;
-  Index term_window = 30;    ///< steps
-  double term_threshold = 0.05;
-  /// Refills the goal buffer (called at construction and every `sample_every` iterations).
-  std::function<void(Rng&, tracking::GoalBuffer&)> refill;
-};
-
 /// What a residual run trains against.
+template <Simulator Sim>
 struct ResidualSetup {
   std::vector<PartMask> masks;       ///< adapted-region set (per episode)
   double switch_rate = 0.0;
   double negative_fraction = 0.25;
   std::vector<DiscriminatorSource> discriminators;
-  std::optional<TrackingSource> tracking;
+  tasks::AnyGoalTask<Sim> goal;      ///< optional: tracking, location, heading, strike, …
+  double goal_weight = 0.5;          ///< the goal task's objective weight
 };
 
 template <Simulator Sim>
 class ResidualTrainer {
  public:
   /// A base with the identity action space (its actions are the PD targets).
-  ResidualTrainer(Sim& sim, tasks::ResetSampler reset, rl::GaussianActor<float> base, ResidualSetup setup,
+  ResidualTrainer(Sim& sim, tasks::ResetSampler reset, rl::GaussianActor<float> base, ResidualSetup<Sim> setup,
                   ResidualTrainConfig config, ThreadPool* pool = nullptr, std::optional<FallCriteria> fall = std::nullopt)
       : ResidualTrainer(sim, std::move(reset), FrozenBase{std::move(base), {}}, std::move(setup), std::move(config), pool,
                         std::move(fall)) {}
   /// `base.actions` maps the composite actions to PD targets (see the file comment). `load`
   /// replaces the base and its action space with the checkpoint's.
-  ResidualTrainer(Sim& sim, tasks::ResetSampler reset, FrozenBase base, ResidualSetup setup,
+  ResidualTrainer(Sim& sim, tasks::ResetSampler reset, FrozenBase base, ResidualSetup<Sim> setup,
                   ResidualTrainConfig config, ThreadPool* pool = nullptr, std::optional<FallCriteria> fall = std::nullopt)
       : cfg_((config.validate(), std::move(config))), setup_(std::move(setup)),
         task_(sim, std::move(reset), no_mask_task(cfg_.rl, std::move(fall)), cfg_.rl.run.seed, pool),
         part_elements_(task_.obs_parts()), rng_(Rng::stream(cfg_.rl.run.seed, 0x5E51D000ULL)) {
-    require(!setup_.discriminators.empty() || setup_.tracking, "a residual run needs at least one objective",
+    require(!setup_.discriminators.empty() || setup_.goal, "a residual run needs at least one objective",
             {{}, {}, "setup"});
     const Index N = task_.num_envs();
     masks_ = tasks::EpisodeMasks(setup_.masks, N, setup_.switch_rate, task_.control_dt(), cfg_.rl.run.seed);
     Rng init = Rng::stream(cfg_.rl.run.seed, 0x2E51ULL);
     adapt::ResidualConfig rc = residual_net_config(cfg_, sim.skeleton());
-    rc.goal_dim = 0;
-    if (setup_.tracking) {
-      bodies_ = tracking::designated_bodies(sim.skeleton(), setup_.tracking->designated);
-      rc.goal_dim = tracking::goal_dim(sim.skeleton(), setup_.tracking->designated, setup_.tracking->goal_steps);
-    }
+    rc.goal_dim = setup_.goal.goal_dim();
     policy_ = adapt::ResidualPolicy<float>(std::move(base.actor), task_.obs_dim(), action_parts(sim.skeleton()), rc, init,
                                            std::move(base.actions));
-    K_ = static_cast<Index>(setup_.discriminators.size()) + (setup_.tracking ? 1 : 0);
+    K_ = static_cast<Index>(setup_.discriminators.size()) + (setup_.goal ? 1 : 0);
     for (const auto& d : setup_.discriminators) weights_.push_back(d.weight);
-    if (setup_.tracking) weights_.push_back(setup_.tracking->weight);
+    if (setup_.goal) weights_.push_back(setup_.goal_weight);
     rl::ActorCriticConfig cc;
     cc.policy_input_dim = critic_dim();
     cc.critic_input_dim = critic_dim();
@@ -378,15 +165,8 @@ class ResidualTrainer {
     spec.num_objectives = K_;
     spec.amp_dim = W;
     buf_.resize(spec);
-    if (setup_.tracking) {
-      term_ = tracking::WindowedTermination(N, setup_.tracking->term_window, setup_.tracking->term_threshold);
-      require(static_cast<bool>(setup_.tracking->refill), "tracking needs a goal-buffer refill function", {{}, {}, "setup"});
-      setup_.tracking->refill(rng_, goals_);
-      goal_index_.assign(static_cast<std::size_t>(N), 0);
-      goal_frame_.assign(static_cast<std::size_t>(N), 0);
-      for (Index e = 0; e < N; ++e) goal_index_[static_cast<std::size_t>(e)] = goals_.draw(rng_);
-      last_track_.assign(static_cast<std::size_t>(N), 0.0f);
-    }
+    if (setup_.goal)
+      for (Index e = 0; e < N; ++e) setup_.goal.new_episode(task_.sim(), e);
   }
 
   const BaseTrainConfig& config() const { return cfg_.rl; }
@@ -399,8 +179,10 @@ class ResidualTrainer {
   Index num_objectives() const { return K_; }
   long long iteration() const { return iteration_; }
   long long samples() const { return samples_; }
-  /// Mean tracking reward exp(−‖q* − q‖²) of the last iteration (NaN without tracking).
-  double last_tracking_reward() const { return last_tracking_reward_; }
+  /// Mean goal-task reward of the last iteration (NaN without a goal task; tracking: exp(−‖q* − q‖²)).
+  double last_goal_reward() const { return last_goal_reward_; }
+  /// The goal task (empty without one).
+  tasks::AnyGoalTask<Sim>& goal_task() { return setup_.goal; }
   /// Critic input rows [s ; m ; g].
   Index critic_dim() const { return task_.obs_dim() + kNumParts + policy_goal_dim(); }
 
@@ -411,13 +193,20 @@ class ResidualTrainer {
     nn::ScopedPool parallel_networks(task_.pool());
     Stopwatch total;
     task_.stats().clear();
-    if (setup_.tracking && iteration_ > 0 && iteration_ % setup_.tracking->sample_every == 0) {
-      setup_.tracking->refill(rng_, goals_);
-      for (auto& g : goal_index_) g = std::min<std::size_t>(g, goals_.trajectories.size() - 1);
+    goal_terminations_ = 0;
+    if (setup_.goal) {
+      setup_.goal.begin_iteration(iteration_);
+      setup_.goal.clear_trials();
     }
-    tracking_terminations_ = 0;
     collect(st);
-    if (setup_.tracking) st.extra["tracking_terminations"] = static_cast<double>(tracking_terminations_);
+    if (setup_.goal) {
+      st.extra[setup_.goal.name() + "_terminations"] = static_cast<double>(goal_terminations_);
+      const auto& tr = setup_.goal.trials();
+      if (tr.trials > 0) {
+        st.extra["trials"] = static_cast<double>(tr.trials);
+        st.extra["success_rate"] = tr.rate();
+      }
+    }
     Stopwatch upd;
     Stopwatch disc_rewards;
     compute_rewards(st);  // (the tracking task's reward terms are timed with the discriminators')
@@ -507,32 +296,7 @@ class ResidualTrainer {
     }
     c.put("state/masks", masks);
     save_task_state(c, "state/task/", task_);
-    if (!setup_.tracking) return;
-    c.put_int("state/goals/count", static_cast<std::int64_t>(goals_.trajectories.size()));
-    for (std::size_t i = 0; i < goals_.trajectories.size(); ++i) {
-      const auto& t = goals_.trajectories[i];
-      const std::string p = "state/goals/" + std::to_string(i);
-      MatrixXd rot(4, t.num_frames());
-      for (Index f = 0; f < t.num_frames(); ++f) rot.col(f) = t.root_rot[static_cast<std::size_t>(f)].coeffs();
-      c.put(p + "/root_pos", MatrixXd(t.root_pos));
-      c.put(p + "/root_rot", rot);
-      c.put(p + "/q", t.q);
-      c.put(p + "/body_pos", t.body_pos);
-      c.put_string(p + "/text", goals_.texts[i]);
-    }
-    VectorX<std::int64_t> gi(N), gf(N);
-    VectorXf lt(N);
-    for (Index e = 0; e < N; ++e) {
-      const auto ue = static_cast<std::size_t>(e);
-      gi[e] = static_cast<std::int64_t>(goal_index_[ue]);
-      gf[e] = static_cast<std::int64_t>(goal_frame_[ue]);
-      lt[e] = last_track_[ue];
-      const auto ws = term_.env_state(e);
-      c.put("state/term/" + std::to_string(e), Eigen::Map<const VectorXd>(ws.data(), static_cast<Index>(ws.size())));
-    }
-    c.put("state/goal_index", gi);
-    c.put("state/goal_frame", gf);
-    c.put("state/last_track", lt);
+    if (setup_.goal) setup_.goal.save(c, "state/goal_task/");
   }
 
   void load_training_state(const Checkpoint& c) {
@@ -563,36 +327,7 @@ class ResidualTrainer {
       masks_.rngs()[static_cast<std::size_t>(e)].set_state(c.get_rng("state/mask_rng/" + std::to_string(e)));
     }
     load_task_state(c, "state/task/", task_);
-    if (!setup_.tracking) return;
-    const Skeleton& skel = task_.sim().skeleton();
-    const auto count = static_cast<std::size_t>(c.get_int("state/goals/count"));
-    require(count >= 1, "checkpoint holds an empty goal buffer", {{}, {}, "state/goals/count"});
-    goals_.trajectories.clear();
-    goals_.texts.clear();
-    for (std::size_t i = 0; i < count; ++i) {
-      const std::string p = "state/goals/" + std::to_string(i);
-      tracking::Trajectory t;
-      t.root_pos = c.get_matrix<double>(p + "/root_pos", 3);
-      const MatrixXd rot = c.get_matrix<double>(p + "/root_rot", 4, t.root_pos.cols());
-      for (Index f = 0; f < rot.cols(); ++f) t.root_rot.emplace_back(rot(3, f), rot(0, f), rot(1, f), rot(2, f));
-      t.q = c.get_matrix<double>(p + "/q", skel.num_dofs(), t.root_pos.cols());
-      t.body_pos = c.get_matrix<double>(p + "/body_pos", 3 * skel.num_bodies(), t.root_pos.cols());
-      goals_.trajectories.push_back(std::move(t));
-      goals_.texts.push_back(c.get_string(p + "/text"));
-    }
-    const auto gi = c.get_vector<std::int64_t>("state/goal_index", N);
-    const auto gf = c.get_vector<std::int64_t>("state/goal_frame", N);
-    const auto lt = c.get_vector<float>("state/last_track", N);
-    for (Index e = 0; e < N; ++e) {
-      const auto ue = static_cast<std::size_t>(e);
-      require(gi[e] >= 0 && static_cast<std::size_t>(gi[e]) < count && gf[e] >= 0, "goal position out of range",
-              {{}, {}, "state/goal_index"});
-      goal_index_[ue] = static_cast<std::size_t>(gi[e]);
-      goal_frame_[ue] = static_cast<std::size_t>(gf[e]);
-      last_track_[ue] = lt[e];
-      const VectorXd ws = c.get_vector<double>("state/term/" + std::to_string(e));
-      term_.set_env_state(e, std::vector<double>(ws.data(), ws.data() + ws.size()));
-    }
+    if (setup_.goal) setup_.goal.load(c, "state/goal_task/");
   }
 
   static tasks::ImitationTaskConfig no_mask_task(const BaseTrainConfig& c, std::optional<FallCriteria> fall) {
@@ -611,11 +346,7 @@ class ResidualTrainer {
     const Index N = task_.num_envs(), G = policy_goal_dim();
     g.resize(G, N);
     if (G == 0) return;
-    for (Index e = 0; e < N; ++e) {
-      const auto ue = static_cast<std::size_t>(e);
-      tracking::extract_goals(task_.sim().skeleton(), bodies_, goals_.trajectories[goal_index_[ue]], goal_frame_[ue],
-                              setup_.tracking->goal_steps, g.col(e));
-    }
+    for (Index e = 0; e < N; ++e) setup_.goal.goal(task_.sim(), e, g.col(e));
   }
 
   void critic_input(const MatrixXf& obs, const std::vector<PartMask>& masks, const MatrixXf& goals, MatrixXf& out) const {
@@ -636,7 +367,7 @@ class ResidualTrainer {
   // ---- 1. collection ----------------------------------------------------------------------
   void collect(IterationStats& st) {
     const Index N = task_.num_envs(), H = cfg_.rl.ppo.horizon;
-    track_rewards_.setZero(buf_.size());
+    goal_rewards_.setZero(buf_.size());
     MatrixXf goals, x, cin, v;
     for (Index t = 0; t < H; ++t) {
       Stopwatch inf;
@@ -670,36 +401,24 @@ class ResidualTrainer {
         const auto ue = static_cast<std::size_t>(e);
         bool term = task_.terminated()[ue] != 0;
         const bool trunc = task_.truncated()[ue] != 0;
-        if (setup_.tracking) {
-          // Reward of the target frame reached by this step. An env the task already reset has
-          // no post-step state left: it keeps its previous tracking reward.
-          const std::size_t gf = goal_frame_[ue] + 1;
-          const auto& traj = goals_.trajectories[goal_index_[ue]];
-          if (!term && !trunc) {
-            const Index f = std::min<Index>(static_cast<Index>(gf), traj.num_frames() - 1);
-            last_track_[ue] = static_cast<float>(tracking::tracking_reward(task_.sim().skeleton(), bodies_, traj.q.col(f),
-                                                                          task_.sim().body_states(ue)));
-            if (term_.push(e, last_track_[ue])) {  // windowed average too low: end the episode, reset the env
-              term = true;
-              task_.restart_env(e);
-              ++tracking_terminations_;
-            }
+        if (setup_.goal) {
+          // An env the imitation task already ended has been reset: the goal task must not read it.
+          const tasks::GoalStep g = setup_.goal.after_step(task_.sim(), e, term || trunc);
+          goal_rewards_(0, c0 + e) = g.reward;
+          if (g.terminate && !term && !trunc) {  // the goal task ends the episode: reset the env
+            term = true;
+            task_.restart_env(e);
+            ++goal_terminations_;
           }
-          track_rewards_(0, c0 + e) = last_track_[ue];
         }
         buf_.terminated[static_cast<std::size_t>(c0 + e)] = term ? 1 : 0;
         buf_.truncated[static_cast<std::size_t>(c0 + e)] = (!term && trunc) ? 1 : 0;
         any_truncated |= (!term && trunc);
         if (term || trunc) {
           masks_.new_episode(e);
-          if (setup_.tracking) {
-            goal_index_[ue] = goals_.draw(rng_);
-            goal_frame_[ue] = 0;
-            term_.reset(e);
-          }
+          if (setup_.goal) setup_.goal.new_episode(task_.sim(), e);
         } else {
           masks_.maybe_switch(e);
-          if (setup_.tracking) ++goal_frame_[ue];
         }
       }
       if (any_truncated) {
@@ -731,10 +450,10 @@ class ResidualTrainer {
       member_inputs(k, buf_.amp_windows, buf_.masks, feat, cond);
       buf_.rewards.row(static_cast<Index>(k)) = discs_.members[k].reward(feat, cond);
     }
-    if (setup_.tracking) {
-      buf_.rewards.row(K_ - 1) = track_rewards_;
-      last_tracking_reward_ = track_rewards_.cast<double>().mean();
-      st.extra["tracking_reward"] = last_tracking_reward_;
+    if (setup_.goal) {
+      buf_.rewards.row(K_ - 1) = goal_rewards_;
+      last_goal_reward_ = goal_rewards_.cast<double>().mean();
+      st.extra[setup_.goal.name() + "_reward"] = last_goal_reward_;
     }
     for (std::size_t k = 0; k < setup_.discriminators.size() && K_ > 1; ++k)
       st.extra["reward_" + setup_.discriminators[k].name] = buf_.rewards.row(static_cast<Index>(k)).cast<double>().mean();
@@ -887,7 +606,7 @@ class ResidualTrainer {
   }
 
   ResidualTrainConfig cfg_;
-  ResidualSetup setup_;
+  ResidualSetup<Sim> setup_;
   tasks::ImitationTask<Sim> task_;
   PartElements part_elements_;
   Rng rng_;
@@ -902,15 +621,9 @@ class ResidualTrainer {
   nn::Adam<float> actor_opt_, critic_opt_;
   rl::RolloutBuffer<float> buf_;
   long long iteration_ = 0, samples_ = 0;
-  double last_tracking_reward_ = NAN;
-  long long tracking_terminations_ = 0;
-  // tracking
-  std::vector<int> bodies_;
-  tracking::GoalBuffer goals_;
-  std::vector<std::size_t> goal_index_, goal_frame_;
-  tracking::WindowedTermination term_;
-  std::vector<float> last_track_;
-  RowVectorXf track_rewards_;
+  double last_goal_reward_ = NAN;
+  long long goal_terminations_ = 0;
+  RowVectorXf goal_rewards_;
   // workspaces
   adapt::ResidualWorkspace<float> ws_;
   adapt::ResidualTrainCache<float> cache_;

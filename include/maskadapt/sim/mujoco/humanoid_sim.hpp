@@ -12,6 +12,12 @@
 ///  - body velocities from `mj_objectVelocity(mjOBJ_XBODY)` (world orientation, at the body origin).
 /// Contact flags come from the last substep's contact list (floor vs body geoms).
 ///
+/// Scene objects (sim/scene.hpp, `SceneSimulator`): the boxes given to the constructor are free
+/// bodies appended to the world (geoms colliding with the floor and with the character), parked
+/// at (50 + 5k, 50) m until a task places them. A character reset leaves them where they are.
+/// Their contacts with the character are OR-ed over the substeps of a control step, so a short
+/// punch is not missed.
+///
 /// Failure handling: an env whose state becomes non-finite or explodes (|qvel| > 1e4, or a body
 /// farther than 1e4 m), or which MuJoCo reset itself (its time went backwards — MuJoCo 2.2.2
 /// resets mjData on a bad qacc), is reset to the last pose given to `reset` and counted in
@@ -24,6 +30,7 @@
 #include <maskadapt/core/types.hpp>
 #include <maskadapt/humanoid/description.hpp>
 #include <maskadapt/humanoid/mjcf.hpp>
+#include <maskadapt/sim/scene.hpp>
 #include <maskadapt/sim/simulator.hpp>
 
 #include <mujoco/mujoco.h>
@@ -90,11 +97,13 @@ class MujocoHumanoidSim {
  public:
   /// `num_envs` copies of the humanoid in `desc`, stepped on `pool` (nullptr: an owned pool with
   /// `num_threads` threads, 1 by default). Every env starts at the standing zero pose.
+  /// `objects`: rigid boxes in every env's scene (none by default).
   explicit MujocoHumanoidSim(std::size_t num_envs, std::size_t num_threads = 1,
-                             const HumanoidDescription& desc = humanoid_description())
-      : MujocoHumanoidSim(num_envs, nullptr, num_threads, desc) {}
-  MujocoHumanoidSim(std::size_t num_envs, ThreadPool& pool, const HumanoidDescription& desc = humanoid_description())
-      : MujocoHumanoidSim(num_envs, &pool, 1, desc) {}
+                             const HumanoidDescription& desc = humanoid_description(), std::vector<BoxObject> objects = {})
+      : MujocoHumanoidSim(num_envs, nullptr, num_threads, desc, std::move(objects)) {}
+  MujocoHumanoidSim(std::size_t num_envs, ThreadPool& pool, const HumanoidDescription& desc = humanoid_description(),
+                    std::vector<BoxObject> objects = {})
+      : MujocoHumanoidSim(num_envs, &pool, 1, desc, std::move(objects)) {}
 
   MujocoHumanoidSim(const MujocoHumanoidSim&) = delete;
   MujocoHumanoidSim& operator=(const MujocoHumanoidSim&) = delete;
@@ -133,6 +142,25 @@ class MujocoHumanoidSim {
     step_impl([&](std::size_t env, mjtNum* ctrl) {
       for (Index k = 0; k < targets.rows(); ++k) ctrl[k] = targets(k, static_cast<Index>(env));
     });
+  }
+
+  // ---- scene objects (SceneSimulator) -------------------------------------------------------
+  std::size_t num_objects() const { return objects_.size(); }
+  const std::vector<BoxObject>& objects() const { return objects_; }
+  const RigidState& object_state(std::size_t env, std::size_t k) const { return at(env).object_states.at(object_index(k)); }
+  const ContactFlags& object_contacts(std::size_t env, std::size_t k) const {
+    return at(env).object_contacts.at(object_index(k));
+  }
+  /// Puts object k of env `env` at `state` (world pose, world velocities); its contact flags are
+  /// cleared. Takes effect from the next step. Throws Error on a bad index or state.
+  void place_object(std::size_t env, std::size_t k, const RigidState& state) {
+    check_rigid_state(state, "object_state");
+    Env& e = at(env);
+    RigidState s = state;
+    s.rot.normalize();
+    e.object_states[object_index(k)] = s;
+    write_object(e.data.get(), k, s);
+    std::fill(e.object_contacts[k].begin(), e.object_contacts[k].end(), 0);
   }
 
   // ---- extras --------------------------------------------------------------------------------
@@ -193,6 +221,14 @@ class MujocoHumanoidSim {
     append(p.root_lin_vel.data(), 3);
     append(p.root_ang_vel.data(), 3);
     append(p.qd.data(), nd);
+    for (std::size_t k = 0; k < objects_.size(); ++k) {  // (only with scene objects)
+      const RigidState& o = e.object_states[k];
+      append(o.pos.data(), 3);
+      append(o.rot.coeffs().data(), 4);
+      append(o.lin_vel.data(), 3);
+      append(o.ang_vel.data(), 3);
+      append(e.object_contacts[k].data(), nb);
+    }
     return v;
   }
 
@@ -202,7 +238,8 @@ class MujocoHumanoidSim {
     Env& e = at(env);
     const mjModel* m = model_.get();
     const int nb = desc_.skeleton.num_bodies(), nd = desc_.skeleton.num_dofs();
-    const std::size_t expected = 7 + static_cast<std::size_t>(m->nq + 2 * m->nv + m->na + m->nu + 14 * nb + 13 + 2 * nd);
+    const std::size_t expected = 7 + static_cast<std::size_t>(m->nq + 2 * m->nv + m->na + m->nu + 14 * nb + 13 + 2 * nd) +
+                                 objects_.size() * static_cast<std::size_t>(13 + nb);
     require(v.size() == expected && v.size() >= 6 && v[0] == m->nq && v[1] == m->nv && v[2] == m->na && v[3] == m->nu &&
                 v[4] == nb && v[5] == nd,
             "saved simulator state does not match this model (" + std::to_string(v.size()) + " values, expected " +
@@ -237,6 +274,15 @@ class MujocoHumanoidSim {
     take(p.root_ang_vel.data(), 3);
     p.qd.resize(nd);
     take(p.qd.data(), nd);
+    std::vector<RigidState> object_states(objects_.size());
+    std::vector<ContactFlags> object_contacts(objects_.size(), ContactFlags(static_cast<std::size_t>(nb)));
+    for (std::size_t o = 0; o < objects_.size(); ++o) {
+      take(object_states[o].pos.data(), 3);
+      take(object_states[o].rot.coeffs().data(), 4);
+      take(object_states[o].lin_vel.data(), 3);
+      take(object_states[o].ang_vel.data(), 3);
+      take(object_contacts[o].data(), nb);
+    }
     // mjData's derived quantities as after a step (positional only; the solver state is
     // untouched). mj_kinematics renormalises qpos's quaternions in place (see above), so qpos is
     // written back afterwards, and the body states are the saved ones, not a second read-out.
@@ -246,6 +292,8 @@ class MujocoHumanoidSim {
     std::memcpy(d->qpos, v.data() + 7, sizeof(mjtNum) * static_cast<std::size_t>(m->nq));
     e.states = std::move(states);
     e.contacts = std::move(contacts);
+    e.object_states = std::move(object_states);
+    e.object_contacts = std::move(object_contacts);
   }
 
  private:
@@ -254,15 +302,19 @@ class MujocoHumanoidSim {
     BodyStates states;
     ContactFlags contacts;
     KinematicState reset_pose;
+    std::vector<RigidState> object_states;     ///< (num_objects)
+    std::vector<ContactFlags> object_contacts;  ///< (num_objects) × (num_bodies)
   };
 
-  MujocoHumanoidSim(std::size_t num_envs, ThreadPool* pool, std::size_t num_threads, const HumanoidDescription& desc)
-      : desc_(desc) {
+  MujocoHumanoidSim(std::size_t num_envs, ThreadPool* pool, std::size_t num_threads, const HumanoidDescription& desc,
+                    std::vector<BoxObject> objects)
+      : desc_(desc), objects_(std::move(objects)) {
     require(num_envs >= 1, "a simulator needs at least one env", {{}, {}, "num_envs"});
     require(desc_.substeps >= 1 && desc_.physics_dt > 0, "physics_dt and substeps must be positive",
             {{}, {}, "substeps"});
     mujoco_detail::install_warning_handler();
-    model_ = mujoco_detail::load_model_from_string(humanoid_mjcf(desc_));
+    for (const BoxObject& o : objects_) o.validate();
+    model_ = mujoco_detail::load_model_from_string(scene_mjcf(humanoid_mjcf(desc_)));
     if (pool) {
       pool_ = pool;
     } else {
@@ -279,7 +331,69 @@ class MujocoHumanoidSim {
       e.states.resize(desc_.skeleton.num_bodies());
       e.contacts.assign(static_cast<std::size_t>(desc_.skeleton.num_bodies()), 0);
       e.reset_pose = standing;
+      for (std::size_t k = 0; k < objects_.size(); ++k) e.object_states.push_back(parked_state(k));
+      e.object_contacts.assign(objects_.size(), ContactFlags(static_cast<std::size_t>(desc_.skeleton.num_bodies()), 0));
       apply_reset(e);
+    }
+  }
+
+  /// Where object k waits until a task places it: on the floor, far from the character.
+  RigidState parked_state(std::size_t k) const {
+    RigidState s;
+    s.pos = Vec3(50.0 + 5.0 * static_cast<double>(k), 50.0, objects_[k].half_size.z());
+    return s;
+  }
+
+  /// The humanoid's MJCF with one free body per scene object appended to the world.
+  std::string scene_mjcf(std::string xml) const {
+    if (objects_.empty()) return xml;
+    using detail::mjcf_num, detail::mjcf_vec;
+    std::string bodies;
+    for (std::size_t k = 0; k < objects_.size(); ++k) {
+      const BoxObject& o = objects_[k];
+      const std::string n = "object_" + o.name;
+      bodies += "    <body name=\"" + n + "\" pos=\"" + mjcf_vec(parked_state(k).pos) + "\">\n";
+      bodies += "      <freejoint name=\"" + n + "\"/>\n";
+      bodies += "      <geom name=\"" + n + "\" type=\"box\" size=\"" + mjcf_vec(o.half_size) + "\" mass=\"" +
+                mjcf_num(o.mass) + "\" contype=\"1\" conaffinity=\"1\" condim=\"3\" friction=\"" + mjcf_num(o.friction) +
+                " 0.005 0.0001\"/>\n";
+      bodies += "    </body>\n";
+    }
+    const auto at_end = xml.rfind("  </worldbody>");
+    require(at_end != std::string::npos, "generated MJCF has no </worldbody>", {{}, {}, "mjcf"});
+    xml.insert(at_end, bodies);
+    return xml;
+  }
+
+  std::size_t object_index(std::size_t k) const {
+    require(k < objects_.size(), "object index " + std::to_string(k) + " out of range (num_objects " +
+                                     std::to_string(objects_.size()) + ")", {{}, {}, "object"});
+    return k;
+  }
+
+  /// Writes object k's free joint (MuJoCo: w, x, y, z; body-local angular velocity).
+  void write_object(mjData* d, std::size_t k, const RigidState& s) const {
+    const int qa = object_qpos_[k], da = object_dof_[k];
+    for (int i = 0; i < 3; ++i) d->qpos[qa + i] = s.pos[i];
+    d->qpos[qa + 3] = s.rot.w();
+    d->qpos[qa + 4] = s.rot.x();
+    d->qpos[qa + 5] = s.rot.y();
+    d->qpos[qa + 6] = s.rot.z();
+    const Vec3 w_local = s.rot.conjugate() * s.ang_vel;
+    for (int i = 0; i < 3; ++i) {
+      d->qvel[da + i] = s.lin_vel[i];
+      d->qvel[da + 3 + i] = w_local[i];
+    }
+  }
+
+  /// ORs the character–object contacts of d's current contact list into e.object_contacts.
+  void accumulate_object_contacts(Env& e, const mjData* d) const {
+    for (int c = 0; c < d->ncon; ++c) {
+      const int g1 = d->contact[c].geom1, g2 = d->contact[c].geom2;
+      const int o1 = object_of_geom_[static_cast<std::size_t>(g1)], o2 = object_of_geom_[static_cast<std::size_t>(g2)];
+      const int b1 = body_of_geom_[static_cast<std::size_t>(g1)], b2 = body_of_geom_[static_cast<std::size_t>(g2)];
+      if (o1 >= 0 && b2 >= 0) e.object_contacts[static_cast<std::size_t>(o1)][static_cast<std::size_t>(b2)] = 1;
+      if (o2 >= 0 && b1 >= 0) e.object_contacts[static_cast<std::size_t>(o2)][static_cast<std::size_t>(b1)] = 1;
     }
   }
 
@@ -325,6 +439,18 @@ class MujocoHumanoidSim {
         if (m->geom_bodyid[g] == body_id_[static_cast<std::size_t>(i)]) body_of_geom_[static_cast<std::size_t>(g)] = i;
     floor_geom_ = mj_name2id(m, mjOBJ_GEOM, "floor");
     require(floor_geom_ >= 0, "model has no geom 'floor'", {{}, {}, "floor"});
+    object_of_geom_.assign(static_cast<std::size_t>(m->ngeom), -1);
+    for (std::size_t k = 0; k < objects_.size(); ++k) {
+      const std::string n = "object_" + objects_[k].name;
+      const int body = mj_name2id(m, mjOBJ_BODY, n.c_str()), joint = mj_name2id(m, mjOBJ_JOINT, n.c_str());
+      require(body > 0 && joint >= 0 && m->jnt_type[joint] == mjJNT_FREE, "model has no free body '" + n + "'",
+              {{}, {}, "objects"});
+      object_body_.push_back(body);
+      object_qpos_.push_back(m->jnt_qposadr[joint]);
+      object_dof_.push_back(m->jnt_dofadr[joint]);
+      for (int g = 0; g < m->ngeom; ++g)
+        if (m->geom_bodyid[g] == body) object_of_geom_[static_cast<std::size_t>(g)] = static_cast<int>(k);
+    }
   }
 
   Env& at(std::size_t env) {
@@ -358,6 +484,7 @@ class MujocoHumanoidSim {
       d->qvel[dof_adr_[k]] = p.qd[static_cast<Index>(k)];
       d->ctrl[k] = p.q[static_cast<Index>(k)];  // hold the pose until the first step
     }
+    for (std::size_t k = 0; k < objects_.size(); ++k) write_object(d, k, e.object_states[k]);  // objects stay put
     mj_forward(m, d);  // also runs collision detection, for the contact flags
     read_out(e);
   }
@@ -380,13 +507,16 @@ class MujocoHumanoidSim {
       mjData* d = e.data.get();
       write_ctrl(env, d->ctrl);
       bool bad = false;
+      for (auto& flags : e.object_contacts) std::fill(flags.begin(), flags.end(), 0);
       for (int s = 0; s < desc_.substeps && !bad; ++s) {
         const mjtNum t0 = d->time;
         mj_step(m, d);
         bad = !(d->time > t0) || failed(d);  // MuJoCo resets data (time → 0) on instability
+        if (!objects_.empty()) accumulate_object_contacts(e, d);
       }
       stats_.physics_reset[env] = bad ? 1 : 0;
       if (bad) {
+        for (std::size_t k = 0; k < objects_.size(); ++k) e.object_states[k] = parked_state(k);  // (state lost)
         apply_reset(e);
         return;
       }
@@ -425,9 +555,19 @@ class MujocoHumanoidSim {
       const int body = body_of_geom_[static_cast<std::size_t>(other)];
       if (body >= 0) e.contacts[static_cast<std::size_t>(body)] = 1;
     }
+    for (std::size_t k = 0; k < objects_.size(); ++k) {
+      const int id = object_body_[k];
+      RigidState& o = e.object_states[k];
+      o.pos = Vec3(d->xpos[3 * id], d->xpos[3 * id + 1], d->xpos[3 * id + 2]);
+      o.rot = Quat(d->xquat[4 * id], d->xquat[4 * id + 1], d->xquat[4 * id + 2], d->xquat[4 * id + 3]);
+      mj_objectVelocity(m, d, mjOBJ_XBODY, id, vel, 0);
+      o.ang_vel = Vec3(vel[0], vel[1], vel[2]);
+      o.lin_vel = Vec3(vel[3], vel[4], vel[5]);
+    }
   }
 
   HumanoidDescription desc_;
+  std::vector<BoxObject> objects_;
   mujoco_detail::ModelPtr model_;
   std::unique_ptr<ThreadPool> owned_pool_;
   ThreadPool* pool_ = nullptr;
@@ -438,9 +578,12 @@ class MujocoHumanoidSim {
   std::vector<int> dof_adr_;       ///< (num_dofs) qvel address of DoF k
   std::vector<int> body_of_geom_;  ///< (ngeom) skeleton body of a MuJoCo geom, −1 for the floor
   int floor_geom_ = -1;
+  std::vector<int> object_body_, object_qpos_, object_dof_;  ///< (num_objects) MuJoCo body id, free-joint addresses
+  std::vector<int> object_of_geom_;                           ///< (ngeom) scene object of a geom, −1 if none
   int root_qpos_ = 0, root_dof_ = 0;
 };
 
 static_assert(Simulator<MujocoHumanoidSim>);
+static_assert(SceneSimulator<MujocoHumanoidSim>);
 
 }  // namespace maskadapt

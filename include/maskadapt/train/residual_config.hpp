@@ -1,0 +1,238 @@
+#pragma once
+/// \file residual_config.hpp
+/// Stage-2 run settings (ResidualTrainConfig and its JSON form) and the networks a residual run
+/// starts from: the frozen base actor of a stage-1 checkpoint (FrozenBase), the scratch
+/// method's zero base, and the residual policy stored in a train-residual checkpoint.
+#include <maskadapt/adapt/residual_policy.hpp>
+#include <maskadapt/core/checkpoint.hpp>
+#include <maskadapt/core/error.hpp>
+#include <maskadapt/core/rng.hpp>
+#include <maskadapt/humanoid/description.hpp>
+#include <maskadapt/humanoid/observation.hpp>
+#include <maskadapt/nn/normalizer.hpp>
+#include <maskadapt/rl/actor_critic.hpp>
+#include <maskadapt/tasks/action_space.hpp>
+#include <maskadapt/tracking/goals.hpp>
+#include <maskadapt/train/base_policy.hpp>
+#include <maskadapt/train/config.hpp>
+
+#include <nlohmann/json.hpp>
+
+#include <string>
+#include <vector>
+
+namespace maskadapt::train {
+
+/// Stage-2 settings; `rl` carries run / env / ppo / disc / net sections of the stage-1 format
+/// (env.motions = the base motion set A; net.critic_hidden / disc_hidden size the new critic and
+/// discriminators).
+struct ResidualTrainConfig {
+  BaseTrainConfig rl;
+  std::string task = "composition";   ///< composition | tracking | location | heading | strike
+  std::string method = "ours";        ///< ours | cml | scratch (no base: a zero base, every DoF residual)
+  std::vector<std::string> new_motions;            ///< M_new (composition)
+  std::vector<std::string> masks = {"lower_body"}; ///< training mask set (cml / tracking: the first = fixed region)
+  double switch_rate = 0.0;           ///< mid-episode mask switches per second (ours)
+  double negative_fraction = 0.25;    ///< share of the fake batch that is negative-expert blends (ours)
+  std::vector<double> objective_weights;  ///< empty: cml 0.5/0.5, tracking 0.5/0.5, ours 1
+  std::vector<Index> residual_hidden = {256, 256};
+  std::string gain = "scalar";        ///< fixed | scalar | per_dof
+  double init_gain = 1.0;
+  // tracking
+  std::string designated = "arms";    ///< parts that follow the generated trajectory
+  Index goal_steps = 2;               ///< next target frames in the goal
+  int sample_every = 20;              ///< refill the goal buffer every N iterations
+  int goal_trajectories = 16;         ///< trajectories per refill
+  double term_window_s = 1.0;         ///< windowed-average early termination window (s)
+  double term_threshold = 0.05;       ///< … ends the goal episode when the mean tracking reward < this
+  std::string generator;              ///< generator checkpoint (CLI)
+  std::string base_checkpoint;        ///< stage-1 checkpoint (CLI; recorded for provenance)
+
+  void validate() const {
+    rl.validate("residual config");
+    require(task == "composition" || task == "tracking" || task == "location" || task == "heading" || task == "strike",
+            "expected composition, tracking, location, heading or strike", {{}, {}, "task"});
+    require(method == "ours" || method == "cml" || method == "scratch", "expected ours, cml or scratch", {{}, {}, "method"});
+    require(!masks.empty(), "need at least one mask", {{}, {}, "masks"});
+    require(switch_rate >= 0, "must be ≥ 0", {{}, {}, "switch_rate"});
+    require(negative_fraction >= 0 && negative_fraction < 1, "must be in [0, 1)", {{}, {}, "negative_fraction"});
+    require(goal_steps >= 1 && sample_every >= 1 && goal_trajectories >= 1, "tracking counts must be ≥ 1", {{}, {}, "tracking"});
+    require(term_window_s > 0, "must be > 0", {{}, {}, "term_window_s"});
+    (void)adapt::gain_mode_from_name(gain);
+  }
+};
+
+inline nlohmann::json to_json(const ResidualTrainConfig& c) {
+  return {{"rl", to_json(c.rl)},
+          {"task", c.task},
+          {"method", c.method},
+          {"new_motions", c.new_motions},
+          {"masks", c.masks},
+          {"switch_rate", c.switch_rate},
+          {"negative_fraction", c.negative_fraction},
+          {"objective_weights", c.objective_weights},
+          {"residual_hidden", c.residual_hidden},
+          {"gain", c.gain},
+          {"init_gain", c.init_gain},
+          {"designated", c.designated},
+          {"goal_steps", c.goal_steps},
+          {"sample_every", c.sample_every},
+          {"goal_trajectories", c.goal_trajectories},
+          {"term_window_s", c.term_window_s},
+          {"term_threshold", c.term_threshold},
+          {"generator", c.generator},
+          {"base_checkpoint", c.base_checkpoint}};
+}
+
+inline ResidualTrainConfig residual_config_from_json(const nlohmann::json& j, const std::string& file = {}) {
+  ResidualTrainConfig c;
+  try {
+    c.rl = config_from_json(j.at("rl"), file);
+    c.task = j.at("task");
+    c.method = j.at("method");
+    c.new_motions = j.at("new_motions").get<std::vector<std::string>>();
+    c.masks = j.at("masks").get<std::vector<std::string>>();
+    c.switch_rate = j.at("switch_rate");
+    c.negative_fraction = j.at("negative_fraction");
+    c.objective_weights = j.at("objective_weights").get<std::vector<double>>();
+    c.residual_hidden = j.at("residual_hidden").get<std::vector<Index>>();
+    c.gain = j.at("gain");
+    c.init_gain = j.at("init_gain");
+    c.designated = j.at("designated");
+    c.goal_steps = j.at("goal_steps");
+    c.sample_every = j.at("sample_every");
+    c.goal_trajectories = j.at("goal_trajectories");
+    c.term_window_s = j.at("term_window_s");
+    c.term_threshold = j.at("term_threshold");
+    c.generator = j.at("generator");
+    c.base_checkpoint = j.at("base_checkpoint");
+  } catch (const nlohmann::json::exception& e) {
+    throw Error(std::string("bad residual config: ") + e.what(), {file, std::nullopt, "residual_config"});
+  }
+  c.validate();
+  return c;
+}
+
+/// Activation by config name (relu | elu | silu | tanh).
+inline nn::Activation residual_activation(const std::string& name) {
+  if (name == "relu") return nn::Activation::ReLU;
+  if (name == "elu") return nn::Activation::ELU;
+  if (name == "silu") return nn::Activation::SiLU;
+  if (name == "tanh") return nn::Activation::Tanh;
+  throw Error("unknown activation '" + name + "'", {{}, std::nullopt, "net.activation"});
+}
+
+inline void save_norm(Checkpoint& c, const std::string& name, const nn::RunningNormalizer<float>& n) {
+  c.put_double(name + "/count", n.count());
+  c.put(name + "/mean", n.mean());
+  c.put(name + "/m2", n.m2());
+}
+inline void load_norm(const Checkpoint& c, const std::string& name, nn::RunningNormalizer<float>& n) {
+  n.set_state(c.get_double(name + "/count"), c.get_vector<double>(name + "/mean", n.dim()),
+              c.get_vector<double>(name + "/m2", n.dim()));
+}
+
+/// A frozen stage-1 actor and how its actions become PD targets.
+struct FrozenBase {
+  rl::GaussianActor<float> actor;
+  tasks::ActionSpace actions;  ///< PD target = offset + scale ⊙ a (identity: a is the target)
+};
+
+/// The stage-1 actor stored in a base checkpoint (architecture from its "config" section) and its
+/// action space (actor/action_offset, actor/action_scale; absent ⇒ identity). Reads only the
+/// sections `config`, `actor/params`, `actor/log_std`, `actor/norm/…`, `actor/action_offset`,
+/// `actor/action_scale`, so it works on a train-base checkpoint and on a policy-only export.
+inline FrozenBase load_base_actor(const Checkpoint& ck, Index obs_dim, Index action_dim) {
+  const BaseTrainConfig bc = config_from_string(ck.get_string("config"), "base checkpoint (config)");
+  rl::ActorCriticConfig ac;
+  ac.policy_input_dim = obs_dim + kNumParts;
+  ac.critic_input_dim = obs_dim;
+  ac.action_dim = action_dim;
+  ac.actor_hidden = bc.net.actor_hidden;
+  ac.activation = residual_activation(bc.net.activation);
+  ac.init_log_std = bc.net.init_log_std;
+  Rng dummy(0);
+  FrozenBase out{rl::GaussianActor<float>(ac, dummy), {}};
+  ck.copy_to<float>("actor/params", out.actor.mean_net.params());
+  ck.copy_to<float>("actor/log_std", out.actor.log_std.params());
+  load_norm(ck, "actor/norm", out.actor.normalizer);
+  load_hidden_groups(ck, out.actor);  // (a base trained with mask.hidden_value = mean)
+  if (ck.contains("actor/action_offset")) out.actions.offset = ck.get_vector<float>("actor/action_offset", action_dim);
+  if (ck.contains("actor/action_scale")) out.actions.scale = ck.get_vector<float>("actor/action_scale", action_dim);
+  out.actions.validate(action_dim, ck.source().empty() ? "actor/action" : ck.source() + ": actor/action");
+  return out;
+}
+
+/// Rows of a run's goal observation (tasks/goal_task.hpp): 0 for composition; tracking: the
+/// designated bodies' next goal_steps frames; location 4, heading 3, strike 15.
+inline Index task_goal_dim(const ResidualTrainConfig& c, const Skeleton& skel) {
+  if (c.task == "tracking") return tracking::goal_dim(skel, PartMask::parse(c.designated, "designated"), c.goal_steps);
+  if (c.task == "location") return 4;
+  if (c.task == "heading") return 3;
+  if (c.task == "strike") return 15;
+  return 0;
+}
+
+/// The residual network settings of a run. Tracking with method cml: the base sees the full
+/// observation (no mask invariance; see adapt::ResidualConfig::masked_base_input).
+inline adapt::ResidualConfig residual_net_config(const ResidualTrainConfig& c, const Skeleton& skel) {
+  adapt::ResidualConfig rc;
+  rc.hidden = c.residual_hidden;
+  rc.activation = residual_activation(c.rl.net.activation);
+  rc.gain = adapt::gain_mode_from_name(c.gain);
+  rc.init_gain = c.init_gain;
+  rc.masked_base_input = !(c.task == "tracking" && c.method == "cml");
+  rc.goal_dim = task_goal_dim(c, skel);
+  return rc;
+}
+
+/// A zero base actor for the from-scratch comparison: every DoF residual, base action 0.
+inline rl::GaussianActor<float> scratch_base_actor(Index obs_dim, Index action_dim) {
+  rl::ActorCriticConfig ac;
+  ac.policy_input_dim = obs_dim + kNumParts;
+  ac.critic_input_dim = obs_dim;
+  ac.action_dim = action_dim;
+  ac.actor_hidden = {8};
+  Rng r(0);
+  rl::GaussianActor<float> a(ac, r);
+  a.mean_net.params().setZero();
+  return a;
+}
+
+/// The scratch method's base: the zero actor and the run config's action space (c.rl.net.action_*,
+/// which must be resolved: resolve_action_space; zero / one ⇒ the identity, as before).
+inline FrozenBase scratch_base(const ResidualTrainConfig& c, Index obs_dim, Index action_dim) {
+  return {scratch_base_actor(obs_dim, action_dim), action_space_of(c.rl, action_dim)};
+}
+
+/// An actor with the architecture of a run's frozen base (c.rl.net, which train-residual copies
+/// from the base checkpoint; scratch: the zero base). Parameters are placeholders until a
+/// checkpoint's base/ sections are loaded.
+inline rl::GaussianActor<float> base_actor_like(const ResidualTrainConfig& c, Index obs_dim, Index action_dim) {
+  if (c.method == "scratch") return scratch_base_actor(obs_dim, action_dim);
+  rl::ActorCriticConfig ac;
+  ac.policy_input_dim = obs_dim + kNumParts;
+  ac.critic_input_dim = obs_dim;
+  ac.action_dim = action_dim;
+  ac.actor_hidden = c.rl.net.actor_hidden;
+  ac.activation = residual_activation(c.rl.net.activation);
+  ac.init_log_std = c.rl.net.init_log_std;
+  Rng r(0);
+  return rl::GaussianActor<float>(ac, r);
+}
+
+/// The residual policy (with its frozen base and the base's action space, base/actor/action_*)
+/// stored in a train-residual checkpoint; `config` receives the run's config.
+inline adapt::ResidualPolicy<float> residual_policy_from_checkpoint(const Checkpoint& ck, const Skeleton& skel,
+                                                                    ResidualTrainConfig* config = nullptr) {
+  const ResidualTrainConfig c = residual_config_from_json(nlohmann::json::parse(ck.get_string("residual_config")), "checkpoint");
+  const Index obs_dim = observation_dim(skel), A = skel.num_dofs();
+  const adapt::ResidualConfig rc = residual_net_config(c, skel);
+  Rng init(0);
+  adapt::ResidualPolicy<float> pol(base_actor_like(c, obs_dim, A), obs_dim, action_parts(skel), rc, init);
+  pol.load(ck, true);
+  if (config) *config = c;
+  return pol;
+}
+
+}  // namespace maskadapt::train

@@ -1,0 +1,293 @@
+// Goal-driven tasks (tasks/location.hpp, heading.hpp, strike.hpp, goal_task.hpp): rewards, goal
+// observations and success tests against hand-computed values; the tasks' trial bookkeeping on
+// the tiny analytic simulator; the type-erased task is a value.
+#include "../train/tiny_sim.hpp"
+
+#include <maskadapt/tasks/goal_task.hpp>
+#include <maskadapt/tasks/heading.hpp>
+#include <maskadapt/tasks/location.hpp>
+#include <maskadapt/tasks/strike.hpp>
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+using namespace maskadapt;
+using maskadapt::testing::TinyWalkerSim;
+
+namespace {
+
+Quat yaw(double a) { return Quat(Eigen::AngleAxisd(a, Vec3::UnitZ())); }
+
+// A simulator with one scene object whose state and contacts the test writes directly (for the
+// strike task's bookkeeping without MuJoCo).
+class TinySceneSim : public TinyWalkerSim {
+ public:
+  explicit TinySceneSim(std::size_t n) : TinyWalkerSim(n), boxes_(n), flags_(n, ContactFlags(6, 0)) {}
+  std::size_t num_objects() const { return 1; }
+  const RigidState& object_state(std::size_t e, std::size_t k) const {
+    EXPECT_EQ(k, 0u);
+    return boxes_.at(e);
+  }
+  void place_object(std::size_t e, std::size_t, const RigidState& s) { boxes_.at(e) = s; }
+  const ContactFlags& object_contacts(std::size_t e, std::size_t) const { return flags_.at(e); }
+  std::vector<RigidState> boxes_;
+  std::vector<ContactFlags> flags_;
+};
+static_assert(SceneSimulator<TinySceneSim>);
+static_assert(tasks::GoalTask<tasks::StrikeTask, TinySceneSim>);
+static_assert(!tasks::GoalTask<tasks::StrikeTask, TinyWalkerSim>);  // strike needs scene objects
+static_assert(tasks::GoalTask<tasks::LocationTask, TinyWalkerSim>);
+static_assert(tasks::GoalTask<tasks::HeadingTask, TinyWalkerSim>);
+
+}  // namespace
+
+// ---- target location ----------------------------------------------------------------------------
+
+TEST(LocationTask, RewardIsOneInsideTheRadiusAndTheVelocityTermOutside) {
+  tasks::LocationConfig c;  // R 0.5 m, v* 1 m/s, k 0.25
+  const Vec3 root(0, 0, 0.9), target(3, 4, 0);  // 5 m away along (0.6, 0.8)
+  EXPECT_EQ(tasks::location_reward(Vec3(3.3, 4.0, 0.9), Vec3::Zero(), target, c), 1.0);  // 0.3 m: inside
+  EXPECT_EQ(tasks::location_reward(Vec3(3.0, 4.49, 0.9), Vec3::Zero(), target, c), 1.0);
+  EXPECT_NEAR(tasks::location_reward(root, Vec3(0.6, 0.8, 0.0), target, c), 1.0, 1e-12);  // v·d = v*
+  EXPECT_NEAR(tasks::location_reward(root, Vec3::Zero(), target, c), std::exp(-0.25), 1e-12);
+  EXPECT_NEAR(tasks::location_reward(root, Vec3(-0.8, 0.6, 0.0), target, c), std::exp(-0.25), 1e-12);  // sideways
+  EXPECT_NEAR(tasks::location_reward(root, Vec3(-0.6, -0.8, 5.0), target, c), std::exp(-0.25 * 4.0), 1e-12);  // away; z ignored
+}
+
+TEST(LocationTask, GoalIsDirectionSpeedDistanceInTheHeadingFrame) {
+  tasks::LocationConfig c;
+  c.speed = 1.2;
+  VectorXf g(4);
+  // facing +y (yaw 90°): a target 2 m along +y is straight ahead, one along +x is to the right
+  tasks::location_goal(Vec3(1, 1, 0.9), yaw(M_PI / 2), Vec3(1, 3, 0), c, g);
+  EXPECT_NEAR(g[0], 1.0f, 1e-6f);
+  EXPECT_NEAR(g[1], 0.0f, 1e-6f);
+  EXPECT_FLOAT_EQ(g[2], 1.2f);
+  EXPECT_NEAR(g[3], 2.0f, 1e-6f);
+  tasks::location_goal(Vec3(1, 1, 0.9), yaw(M_PI / 2), Vec3(4, 1, 0), c, g);
+  EXPECT_NEAR(g[0], 0.0f, 1e-6f);
+  EXPECT_NEAR(g[1], -1.0f, 1e-6f);  // right = −left
+  EXPECT_NEAR(g[3], 3.0f, 1e-6f);
+  VectorXf wrong(3);
+  EXPECT_THROW(tasks::location_goal(Vec3::Zero(), Quat::Identity(), Vec3(1, 0, 0), c, wrong), Error);
+}
+
+TEST(LocationTask, CharacterAtTheTargetGetsOneAndSucceeds) {
+  TinyWalkerSim sim(2);
+  tasks::LocationConfig c;
+  tasks::LocationTask task(c, 2);
+  task.new_episode(sim, 0);
+  task.new_episode(sim, 1);
+  const double d0 = (task.target(0) - sim.body_states(0).pos.col(0)).head<2>().norm();
+  EXPECT_GE(d0, c.min_distance - 1e-9);
+  EXPECT_LE(d0, c.max_distance + 1e-9);
+  const Vec3 root = sim.body_states(0).pos.col(0);
+  task.set_target(0, Vec3(root.x() + 0.2, root.y(), 0.0), 2);  // within R: reached
+  task.set_target(1, Vec3(root.x() + 4.0, root.y(), 0.0), 2);  // 4 m away: not reached
+  EXPECT_EQ(task.after_step(sim, 0, false).reward, 1.0f);
+  EXPECT_LT(task.after_step(sim, 1, false).reward, 1.0f);
+  EXPECT_EQ(task.trials().trials, 0);
+  task.after_step(sim, 0, false);  // second step: both goals expire, trials close
+  task.after_step(sim, 1, false);
+  EXPECT_EQ(task.trials().trials, 2);
+  EXPECT_EQ(task.trials().successes, 1);
+  task.after_step(sim, 1, true);  // the episode ended before env 1 reached its new target: a failure
+  EXPECT_EQ(task.trials().trials, 3);
+  EXPECT_EQ(task.trials().successes, 1);
+}
+
+// ---- heading ---------------------------------------------------------------------------------------
+
+TEST(HeadingTask, RewardMatchesTheClosedForm) {
+  const Vec3 d(0, 1, 0);  // target direction +y
+  // moving at s* along d and facing d: 0.7 + 0.3
+  EXPECT_NEAR(tasks::heading_reward(Vec3(0, 1.2, 0), yaw(M_PI / 2), d, 1.2), 1.0, 1e-12);
+  // standing still, facing away: 0.7·exp(−0.25·s*²)
+  EXPECT_NEAR(tasks::heading_reward(Vec3::Zero(), yaw(-M_PI / 2), d, 1.2), 0.7 * std::exp(-0.25 * 1.44), 1e-12);
+  // 1 m/s sideways, facing 45° off d: 0.7·exp(−0.25·(1 + 0.1)) + 0.3·cos 45°
+  EXPECT_NEAR(tasks::heading_reward(Vec3(1, 0, 0.3), yaw(M_PI / 4), d, 1.0),
+              0.7 * std::exp(-0.25 * 1.1) + 0.3 * std::sqrt(0.5), 1e-12);
+  VectorXf g(3);
+  tasks::heading_goal(yaw(M_PI / 2), d, 1.2, g);  // facing d: straight ahead
+  EXPECT_NEAR(g[0], 1.0f, 1e-6f);
+  EXPECT_NEAR(g[1], 0.0f, 1e-6f);
+  EXPECT_FLOAT_EQ(g[2], 1.2f);
+}
+
+TEST(HeadingTask, SuccessIsTheMeanVelocityAlongTheDirectionWithinTolerance) {
+  TinyWalkerSim sim(1);  // standing still: v_d = 0
+  tasks::HeadingConfig c;
+  c.success_window = 3;
+  tasks::HeadingTask task(c, 1);
+  task.set_goal(0, Vec3(1, 0, 0), 0.4, 3);  // |0.4 − 0| < 0.5: success once the window is full
+  task.after_step(sim, 0, false);
+  EXPECT_FALSE(task.success(0));  // 1 of 3 steps
+  task.after_step(sim, 0, false);
+  task.after_step(sim, 0, false);  // goal expires: trial closes
+  EXPECT_EQ(task.trials().trials, 1);
+  EXPECT_EQ(task.trials().successes, 1);
+  task.set_goal(0, Vec3(1, 0, 0), 0.6, 3);  // |0.6 − 0| ≥ 0.5: failure
+  for (int i = 0; i < 3; ++i) task.after_step(sim, 0, false);
+  EXPECT_EQ(task.trials().trials, 2);
+  EXPECT_EQ(task.trials().successes, 1);
+  EXPECT_THROW(task.set_goal(0, Vec3(1, 1, 0), 1.0, 3), Error);  // not a unit vector
+}
+
+// ---- strike ----------------------------------------------------------------------------------------
+
+TEST(StrikeTask, BoxTiltedBy80DegreesSucceedsBy70DoesNot) {
+  const auto tilt = [](double deg) { return Quat(Eigen::AngleAxisd(deg * M_PI / 180.0, Vec3::UnitX())); };
+  EXPECT_NEAR(tasks::strike_reward(Quat::Identity()), 0.0, 1e-12);
+  EXPECT_NEAR(tasks::strike_reward(tilt(90)), 1.0, 1e-12);
+  EXPECT_NEAR(tasks::strike_reward(tilt(60)), 0.5, 1e-12);
+  TinySceneSim sim(1);
+  tasks::StrikeConfig c;
+  c.strike_bodies = {2, 3};  // the tiny walker's arms
+  tasks::StrikeTask task(c, 1);
+  for (double deg : {80.0, 70.0}) {
+    task.new_episode(sim, 0);
+    sim.flags_[0] = {0, 0, 0, 1, 0, 0};  // the right arm touches first
+    sim.boxes_[0].rot = tilt(deg);
+    const auto step = task.after_step(sim, 0, false);
+    EXPECT_NEAR(step.reward, 1.0 - std::cos(deg * M_PI / 180.0), 1e-6) << deg;
+    EXPECT_EQ(task.success(0), deg == 80.0) << deg;
+  }
+}
+
+TEST(StrikeTask, OnlyAStrikeWithTheHandsCounts) {
+  TinySceneSim sim(1);
+  tasks::StrikeConfig c;
+  c.strike_bodies = {2, 3};
+  tasks::StrikeTask task(c, 1);
+  const Quat fallen(Eigen::AngleAxisd(M_PI / 2, Vec3::UnitY()));
+  // a leg touches first, the box falls: no success; the trial closes as a failure when the episode ends
+  task.new_episode(sim, 0);
+  sim.flags_[0] = {0, 0, 0, 0, 1, 0};
+  task.after_step(sim, 0, false);
+  EXPECT_EQ(task.first_contact(0), tasks::FirstContact::Foreign);
+  sim.flags_[0] = {0, 0, 1, 0, 0, 0};
+  sim.boxes_[0].rot = fallen;
+  task.after_step(sim, 0, false);
+  EXPECT_FALSE(task.success(0));
+  task.after_step(sim, 0, true);
+  EXPECT_EQ(task.trials().trials, 1);
+  EXPECT_EQ(task.trials().successes, 0);
+  // hand first (together with the trunk), then the fall: success
+  task.new_episode(sim, 0);
+  EXPECT_EQ(task.first_contact(0), tasks::FirstContact::None);
+  sim.boxes_[0].rot = Quat::Identity();
+  sim.flags_[0] = {1, 0, 1, 0, 0, 0};
+  task.after_step(sim, 0, false);
+  EXPECT_EQ(task.first_contact(0), tasks::FirstContact::Strike);
+  sim.flags_[0] = {0, 0, 0, 0, 0, 0};
+  sim.boxes_[0].rot = fallen;
+  task.after_step(sim, 0, false);
+  EXPECT_TRUE(task.success(0));
+  task.after_step(sim, 0, true);
+  EXPECT_EQ(task.trials().successes, 1);
+  // with end_on_foreign_contact, a foreign first contact ends the episode at once
+  c.end_on_foreign_contact = true;
+  tasks::StrikeTask strict(c, 1);
+  strict.new_episode(sim, 0);
+  sim.flags_[0] = {0, 0, 0, 0, 0, 1};
+  EXPECT_TRUE(strict.after_step(sim, 0, false).terminate);
+  EXPECT_EQ(strict.trials().trials, 1);
+}
+
+TEST(StrikeTask, PlacesTheBoxUprightAtRestWithinTheDistanceRange) {
+  TinySceneSim sim(3);
+  tasks::StrikeConfig c;
+  c.strike_bodies = {2, 3};
+  c.min_distance = 1.5;
+  c.max_distance = 2.5;
+  c.box_half_height = 0.6;
+  tasks::StrikeTask task(c, 3);
+  for (Index e = 0; e < 3; ++e) {
+    task.new_episode(sim, e);
+    const RigidState& b = sim.boxes_[static_cast<std::size_t>(e)];
+    const double d = (b.pos - sim.body_states(static_cast<std::size_t>(e)).pos.col(0)).head<2>().norm();
+    EXPECT_GE(d, 1.5 - 1e-9);
+    EXPECT_LE(d, 2.5 + 1e-9);
+    EXPECT_DOUBLE_EQ(b.pos.z(), 0.6);
+    EXPECT_NEAR(tasks::box_uprightness(b.rot), 1.0, 1e-12);
+    EXPECT_EQ(b.lin_vel, Vec3::Zero());
+  }
+}
+
+TEST(StrikeTask, GoalIsTheBoxStateInTheHeadingFrame) {
+  RigidState box;
+  box.pos = Vec3(1, 3, 0.6);
+  box.rot = yaw(M_PI / 2);  // box turned like the root: identity in the heading frame
+  box.lin_vel = Vec3(0, 2, 0);
+  box.ang_vel = Vec3(0, 0, 0.5);
+  VectorXf g(15);
+  tasks::strike_goal(Vec3(1, 1, 0.9), yaw(M_PI / 2), box, g);  // root facing +y, box 2 m ahead
+  VectorXf want(15);
+  want << 2, 0, -0.3, 1, 0, 0, 0, 1, 0, 2, 0, 0, 0, 0, 0.5;
+  EXPECT_TRUE(g.isApprox(want, 1e-6f)) << g.transpose();
+}
+
+TEST(StrikeTask, BodiesByNameNamesTheMissingOne) {
+  const Skeleton s = maskadapt::testing::tiny_walker_skeleton();
+  EXPECT_EQ(tasks::bodies_by_name(s, {"l_arm", "r_arm"}), (std::vector<int>{2, 3}));
+  try {
+    tasks::bodies_by_name(s, {"L_Wrist"});
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("L_Wrist"), std::string::npos);
+  }
+}
+
+// ---- shared ----------------------------------------------------------------------------------------
+
+TEST(GoalTask, WilsonIntervalMatchesTheClosedForm) {
+  tasks::TrialCounter t;
+  for (int i = 0; i < 100; ++i) t.add(i % 2 == 0);
+  const auto [lo, hi] = t.wilson95();
+  // p = 0.5, n = 100, z = 1.96: centre 0.5, half-width 1.96·sqrt(0.0025 + 0.000096)/1.038416
+  const double half = 1.96 * std::sqrt(0.0025 + 1.96 * 1.96 / 40000.0) / (1 + 1.96 * 1.96 / 100.0);
+  EXPECT_NEAR(lo, 0.5 - half, 1e-12);
+  EXPECT_NEAR(hi, 0.5 + half, 1e-12);
+  EXPECT_NEAR(half, 0.0962, 1e-4);
+  tasks::TrialCounter all;
+  for (int i = 0; i < 10; ++i) all.add(true);
+  EXPECT_DOUBLE_EQ(all.wilson95().second, 1.0);
+  EXPECT_LT(all.wilson95().first, 1.0);
+}
+
+TEST(GoalTask, AnyGoalTaskIsAValue) {
+  TinyWalkerSim sim(1);
+  tasks::AnyGoalTask<TinyWalkerSim> a = tasks::LocationTask(tasks::LocationConfig{}, 1);
+  a.new_episode(sim, 0);
+  tasks::AnyGoalTask<TinyWalkerSim> b = a;  // a deep copy
+  const Vec3 ta = a.as<tasks::LocationTask>()->target(0);
+  EXPECT_EQ(b.as<tasks::LocationTask>()->target(0), ta);
+  b.new_episode(sim, 0);  // draws a new target in b only
+  EXPECT_EQ(a.as<tasks::LocationTask>()->target(0), ta);
+  EXPECT_NE(b.as<tasks::LocationTask>()->target(0), ta);
+  EXPECT_EQ(a.as<tasks::HeadingTask>(), nullptr);
+  EXPECT_EQ(a.goal_dim(), 4);
+  EXPECT_EQ(tasks::AnyGoalTask<TinyWalkerSim>().goal_dim(), 0);
+  EXPECT_THROW(tasks::AnyGoalTask<TinyWalkerSim>().name(), Error);
+}
+
+TEST(GoalTask, SaveAndLoadRestoreGoalsAndStreams) {
+  TinyWalkerSim sim(2);
+  tasks::HeadingConfig c;
+  c.schedule = {2, 2};
+  tasks::HeadingTask a(c, 2), b(c, 2);
+  for (Index e = 0; e < 2; ++e) a.new_episode(sim, e);
+  a.after_step(sim, 0, false);
+  Checkpoint ck;
+  a.save(ck, "g/");
+  b.load(ck, "g/");
+  for (int i = 0; i < 5; ++i)
+    for (Index e = 0; e < 2; ++e) {
+      EXPECT_EQ(a.after_step(sim, e, false).reward, b.after_step(sim, e, false).reward);
+      EXPECT_EQ(a.direction(e), b.direction(e));
+      EXPECT_EQ(a.speed(e), b.speed(e));
+    }
+  tasks::HeadingTask wrong(c, 3);  // another env count: refused, naming the section
+  EXPECT_THROW(wrong.load(ck, "g/"), Error);
+}
