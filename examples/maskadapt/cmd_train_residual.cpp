@@ -17,6 +17,10 @@
 #include <maskadapt/tracking/text_pool.hpp>
 #include <maskadapt/train/motion_sources.hpp>
 #include <maskadapt/train/residual_eval.hpp>
+#include <maskadapt/tasks/heading.hpp>
+#include <maskadapt/tasks/location.hpp>
+#include <maskadapt/tasks/strike.hpp>
+#include <maskadapt/tasks/tracking_task.hpp>
 #include <maskadapt/train/residual_trainer.hpp>
 #include <maskadapt/train/run_loop.hpp>
 
@@ -85,10 +89,17 @@ std::vector<std::string> default_text_pool(const Skeleton& skel) {
   }
 }
 
+/// The goal-driven tasks (tasks/location.hpp, heading.hpp, strike.hpp).
+bool is_goal_task(const std::string& task) { return task == "location" || task == "heading" || task == "strike"; }
+
+/// The strike task's box (sim/scene.hpp): 0.4 × 0.4 × 1.2 m, 5 kg.
+BoxObject strike_box() { return BoxObject{}; }
+
 /// Builds the reward sources of a run.
-ResidualSetup make_setup(const ResidualTrainConfig& c, const std::shared_ptr<MotionLibrary>& base_lib,
-                         const std::shared_ptr<MotionLibrary>& new_lib, const std::vector<BodyPart>& obs_parts) {
-  ResidualSetup s;
+template <Simulator Sim>
+ResidualSetup<Sim> make_setup(const ResidualTrainConfig& c, const std::shared_ptr<MotionLibrary>& base_lib,
+                              const std::shared_ptr<MotionLibrary>& new_lib, const std::vector<BodyPart>& obs_parts) {
+  ResidualSetup<Sim> s;
   s.masks = tasks::parse_mask_set(c.masks, "--masks");
   s.switch_rate = c.switch_rate;
   s.negative_fraction = c.negative_fraction;
@@ -96,6 +107,12 @@ ResidualSetup make_setup(const ResidualTrainConfig& c, const std::shared_ptr<Mot
     return [lib](Rng& r, Index B, MatrixXf& w, MatrixXf&) { w = lib->sample_amp_windows(r, static_cast<int>(B)); };
   };
   const std::vector<double> w = c.objective_weights;
+  if (is_goal_task(c.task) && c.new_motions.empty()) {  // a goal on the base's own motion: imitate A
+    s.masks = {c.method == "scratch" ? PartMask::all() : s.masks.front()};
+    s.switch_rate = 0;
+    s.discriminators.push_back({"imitation", w.size() > 0 ? w[0] : 0.5, {}, false, from(base_lib), {}});
+    return s;
+  }
   if (c.task == "tracking") {
     const PartMask d = PartMask::parse(c.designated, "--designated");
     s.masks = {c.method == "scratch" ? PartMask::all() : d};
@@ -122,13 +139,15 @@ ResidualSetup make_setup(const ResidualTrainConfig& c, const std::shared_ptr<Mot
 #ifdef MASKADAPT_HAS_MUJOCO
 /// The tracking objective: goal-buffer refills from the generator with prompts from `texts`,
 /// histories from the base motion set.
-TrackingSource make_tracking(const ResidualTrainConfig& c, std::shared_ptr<tracking::BuiltinGenerator> gen,
-                             std::shared_ptr<MotionLibrary> base_lib, std::vector<std::string> texts, double control_dt) {
-  TrackingSource t;
+tasks::TrackingTask make_tracking(const ResidualTrainConfig& c, std::shared_ptr<tracking::BuiltinGenerator> gen,
+                                  std::shared_ptr<MotionLibrary> base_lib, std::vector<std::string> texts,
+                                  const MujocoHumanoidSim& sim) {
+  const double control_dt = sim.control_dt();
+  tasks::TrackingTaskConfig t;
   t.designated = PartMask::parse(c.designated, "--designated");
   t.goal_steps = c.goal_steps;
-  t.weight = c.objective_weights.size() > 1 ? c.objective_weights[1] : 0.5;
   t.sample_every = c.sample_every;
+  t.seed = c.rl.run.seed;
   t.term_window = std::max<Index>(1, std::llround(c.term_window_s / control_dt));
   t.term_threshold = c.term_threshold;
   const Index frames = std::llround(c.rl.env.episode_seconds / control_dt) + c.goal_steps + 1;
@@ -140,7 +159,7 @@ TrackingSource make_tracking(const ResidualTrainConfig& c, std::shared_ptr<track
                                                gen->history_frames());
     }, n, frames, r);
   };
-  return t;
+  return tasks::TrackingTask(sim.skeleton(), std::move(t), static_cast<Index>(sim.num_envs()));
 }
 #endif
 
@@ -189,7 +208,7 @@ void run_train_residual(const Args& a) {
     }
     if (!a.motions.empty()) c.rl.env.motions = a.motions;
     require_task_flags(c.task == "tracking" ? a.composition_only : a.tracking_only, c.task,
-                       c.task == "tracking" ? "composition" : "tracking");
+                       c.task == "tracking" ? "composition (and the goal tasks)" : "tracking");
   }
   if (a.iterations >= 0) c.rl.run.iterations = a.iterations;
   if (a.minutes > 0) c.rl.run.minutes = a.minutes;
@@ -200,12 +219,15 @@ void run_train_residual(const Args& a) {
                               {"run.minutes", "--minutes"}, {"run.out_dir", "--out"}, {"env.motions", "--motions"},
                               {"env.episode_seconds", "--episode-seconds"}, {"switch_rate", "--switch-rate"},
                               {"masks", "--masks"}, {"task", "--task"}, {"method", "--method"}});
-  require(c.task == "tracking" || !c.new_motions.empty(), "composition needs --new-motion", {{}, {}, "--new-motion"});
+  require(c.task != "composition" || !c.new_motions.empty(), "composition needs --new-motion", {{}, {}, "--new-motion"});
 
   auto base_lib = load_motion_library(c.rl.env.motions, data_dir());
-  std::shared_ptr<MotionLibrary> new_lib = c.task == "composition" ? load_motion_library(c.new_motions, data_dir()) : base_lib;
+  std::shared_ptr<MotionLibrary> new_lib =
+      c.task != "tracking" && !c.new_motions.empty() ? load_motion_library(c.new_motions, data_dir()) : base_lib;
   ThreadPool pool(static_cast<std::size_t>(c.rl.run.threads));
-  MujocoHumanoidSim sim(static_cast<std::size_t>(c.rl.env.num_envs), pool);
+  std::vector<BoxObject> objects;
+  if (c.task == "strike") objects.push_back(strike_box());
+  MujocoHumanoidSim sim(static_cast<std::size_t>(c.rl.env.num_envs), pool, humanoid_description(), objects);
   const Index obs_dim = observation_dim(sim.skeleton()), A = sim.skeleton().num_dofs();
   // The frozen base and its action space (PD target = offset + scale ⊙ â). Resume: placeholders,
   // replaced by the checkpoint's base/ sections (action space included) in trainer.load. Scratch:
@@ -214,7 +236,7 @@ void run_train_residual(const Args& a) {
   FrozenBase base = resume ? FrozenBase{base_actor_like(c, obs_dim, A), {}}
                     : c.method == "scratch" ? scratch_base(c, obs_dim, A)
                                             : load_base_actor(load_checkpoint(a.base), obs_dim, A);
-  ResidualSetup setup = make_setup(c, base_lib, new_lib, observation_parts(sim.skeleton()));
+  ResidualSetup<MujocoHumanoidSim> setup = make_setup<MujocoHumanoidSim>(c, base_lib, new_lib, observation_parts(sim.skeleton()));
   if (c.task == "tracking") {
     require(!c.generator.empty(), "tracking needs --generator (train one with `maskadapt train-generator`)", {{}, {}, "--generator"});
     auto gen = std::make_shared<tracking::BuiltinGenerator>(tracking::BuiltinGenerator::load(c.generator, sim.skeleton()));
@@ -225,7 +247,27 @@ void run_train_residual(const Args& a) {
     std::cout << "train-residual: text pool (" << texts.size() << "):";
     for (const auto& t : texts) std::cout << " '" << t << "'";
     std::cout << "\n";
-    setup.tracking = make_tracking(c, gen, base_lib, texts, sim.control_dt());
+    setup.goal = make_tracking(c, gen, base_lib, texts, sim);
+    setup.goal_weight = c.objective_weights.size() > 1 ? c.objective_weights[1] : 0.5;
+  }
+  if (is_goal_task(c.task)) {
+    const auto N = static_cast<Index>(sim.num_envs());
+    if (c.task == "location") {
+      tasks::LocationConfig lc;
+      lc.seed = c.rl.run.seed;
+      setup.goal = tasks::LocationTask(lc, N);
+    } else if (c.task == "heading") {
+      tasks::HeadingConfig hc;
+      hc.seed = c.rl.run.seed;
+      setup.goal = tasks::HeadingTask(hc, N);
+    } else {
+      tasks::StrikeConfig sc;
+      sc.seed = c.rl.run.seed;
+      sc.box_half_height = objects.front().half_size.z();
+      sc.strike_bodies = tasks::bodies_by_name(sim.skeleton(), {"L_Wrist", "R_Wrist"});
+      setup.goal = tasks::StrikeTask(sc, N);
+    }
+    setup.goal_weight = c.objective_weights.empty() ? 0.5 : c.objective_weights.back();
   }
   std::cout << "train-residual: task " << c.task << ", method " << c.method << ", masks";
   for (const auto& m : setup.masks) std::cout << " " << m.to_string();
@@ -242,7 +284,7 @@ void run_train_residual(const Args& a) {
   run_training(trainer, RunOptions{static_cast<bool>(resume), &std::cout, cli::stop_training_on_signals()});
   std::cout << "train-residual: done, " << trainer.iteration() << " iterations; checkpoint " << c.rl.run.out_dir
             << "/checkpoint.bin";
-  if (c.task == "tracking") std::cout << "; last tracking reward " << trainer.last_tracking_reward();
+  if (trainer.goal_task()) std::cout << "; last " << c.task << " reward " << trainer.last_goal_reward();
   std::cout << "\n";
 #endif
 }
@@ -465,7 +507,8 @@ const bool registered = maskadapt::cli::register_command([](CLI::App& app) {
       parsed_by([](const std::string& t) { (void)tasks::parse_mask_set({t}); }, "MASK");
   std::vector<CLI::Option*> fixed_by_resume;  // the run's own config decides these on --resume
   auto keep = [&](CLI::Option* o) { fixed_by_resume.push_back(o); return o; };
-  keep(c->add_option("--task", a->task, "composition | tracking"))->check(one_of({"composition", "tracking"}));
+  keep(c->add_option("--task", a->task, "composition | tracking | location | heading | strike (goal tasks: --new-motion optional)"))
+      ->check(one_of({"composition", "tracking", "location", "heading", "strike"}));
   keep(c->add_option("--method", a->method, "ours | cml | scratch"))->check(one_of({"ours", "cml", "scratch"}));
   keep(c->add_option("--base", a->base, "stage-1 checkpoint (train-base output)"));
   keep(c->add_option("--new-motion", a->new_motion, "new motion set B: builtin name | DIR | FILE ..."));

@@ -4,6 +4,7 @@
 // and resumes bit-exactly.
 #include "../train/tiny_sim.hpp"
 
+#include <maskadapt/train/goal_eval.hpp>
 #include <maskadapt/train/residual_eval.hpp>
 #include <maskadapt/tasks/heading.hpp>
 #include <maskadapt/tasks/location.hpp>
@@ -610,4 +611,46 @@ TEST(ResidualTrainer, NormalisedBaseResumesBitExactlyWithTheCheckpointsActionSpa
     resumed->save(b);
     EXPECT_TRUE(serialize_checkpoint(a) == serialize_checkpoint(b)) << task;
   }
+}
+
+// Goal-task evaluation: a goal radius that covers the whole floor makes every trial a success, a
+// 1 mm radius around targets metres away makes every trial a failure; at least min_trials end,
+// the Wilson interval brackets the rate, and a step budget too small to end them is refused.
+TEST(ResidualEval, GoalTaskSuccessRateCountsEndedTrials) {
+  Data d;
+  const Skeleton& skel = d.skel;
+  adapt::ResidualConfig rc;
+  rc.hidden = {16};
+  rc.goal_dim = 4;
+  Rng init(2);
+  adapt::ResidualPolicy<float> pol(tiny_base(skel), observation_dim(skel), action_parts(skel), rc, init);
+  GoalEvalOptions opt;
+  opt.min_trials = 20;
+  opt.episode_seconds = 1000.0;  // no truncation, and (below) no falls: every trial ends by its goal's expiry
+  const FallCriteria never = FallCriteria::for_skeleton(skel, {"root", "head", "l_arm", "r_arm", "l_leg", "r_leg"}, "");
+  for (double radius : {1000.0, 0.001}) {
+    TinyWalkerSim sim(4);
+    tasks::LocationConfig lc;
+    lc.radius = radius;
+    lc.schedule = {5, 8};
+    const GoalEvalResult r = evaluate_goal_task<TinyWalkerSim>(sim, pol, tasks::LocationTask(lc, 4), PartMask::parse("arms"),
+                                                               upright(skel), never, opt);
+    EXPECT_EQ(r.task, "location");
+    EXPECT_GE(r.trials.trials, 20);
+    EXPECT_LT(r.trials.trials, 20 + 4 * 2);  // it stops soon after: at most two trials per env in the last step
+    EXPECT_EQ(r.trials.rate(), radius > 1 ? 1.0 : 0.0) << radius;
+    EXPECT_LE(r.ci_low, r.trials.rate());
+    EXPECT_GE(r.ci_high, r.trials.rate());
+    EXPECT_LT(r.ci_high - r.ci_low, 0.2);
+    if (radius > 1) EXPECT_EQ(r.mean_reward, 1.0);
+  }
+  TinyWalkerSim sim(4);
+  opt.max_steps = 3;  // no 5-step goal can end
+  EXPECT_THROW(evaluate_goal_task<TinyWalkerSim>(sim, pol, tasks::LocationTask(tasks::LocationConfig{}, 4), PartMask::parse("arms"),
+                                                 upright(skel), tiny_fall(skel), opt),
+               Error);
+  tasks::HeadingConfig hc;  // a policy with 4 goal rows does not fit a 3-row task
+  EXPECT_THROW(evaluate_goal_task<TinyWalkerSim>(sim, pol, tasks::HeadingTask(hc, 4), PartMask::parse("arms"), upright(skel),
+                                                 tiny_fall(skel), GoalEvalOptions{}),
+               Error);
 }

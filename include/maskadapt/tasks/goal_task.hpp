@@ -154,6 +154,34 @@ class AnyGoalTask {
   std::unique_ptr<Concept> self_;
 };
 
+/// One env after an imitation-task step (`task`: tasks::ImitationTask or anything with
+/// terminated(), truncated(), sim() and restart_env(e)), with a goal task beside it.
+struct GoalOutcome {
+  float reward = 0.0f;         ///< the goal task's reward row
+  bool terminated = false;     ///< the episode ended without bootstrapping (a fall, or the goal task ended it)
+  bool truncated = false;      ///< the episode hit its time limit
+  bool by_goal_task = false;   ///< the goal task ended it (the env was restarted here)
+};
+
+/// The goal task's side of one env's step, the same in training and evaluation: its reward; if
+/// it ends the episode, the env is restarted; when the episode ended (either way) the goal task
+/// starts the next one (new goal, scene objects placed).
+template <Simulator Sim, class ImitationLike>
+GoalOutcome advance_goal(AnyGoalTask<Sim>& goal, ImitationLike& task, Index e) {
+  const auto u = static_cast<std::size_t>(e);
+  GoalOutcome o;
+  o.terminated = task.terminated()[u] != 0;
+  o.truncated = !o.terminated && task.truncated()[u] != 0;
+  const GoalStep g = goal.after_step(task.sim(), e, o.terminated || o.truncated);
+  o.reward = g.reward;
+  if (g.terminate && !o.terminated && !o.truncated) {
+    task.restart_env(e);
+    o.terminated = o.by_goal_task = true;
+  }
+  if (o.terminated || o.truncated) goal.new_episode(task.sim(), e);
+  return o;
+}
+
 // ---- helpers shared by the goal tasks ----------------------------------------------------------
 
 /// Per-env RNG streams of a task: stream(seed, salt + e).

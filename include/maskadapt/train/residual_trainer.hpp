@@ -400,23 +400,19 @@ class ResidualTrainer {
       for (Index e = 0; e < N; ++e) {
         const auto ue = static_cast<std::size_t>(e);
         bool term = task_.terminated()[ue] != 0;
-        const bool trunc = task_.truncated()[ue] != 0;
-        if (setup_.goal) {
-          // An env the imitation task already ended has been reset: the goal task must not read it.
-          const tasks::GoalStep g = setup_.goal.after_step(task_.sim(), e, term || trunc);
+        bool trunc = task_.truncated()[ue] != 0;
+        if (setup_.goal) {  // (its reward; it may end the episode; a new episode gets a new goal)
+          const tasks::GoalOutcome g = tasks::advance_goal(setup_.goal, task_, e);
           goal_rewards_(0, c0 + e) = g.reward;
-          if (g.terminate && !term && !trunc) {  // the goal task ends the episode: reset the env
-            term = true;
-            task_.restart_env(e);
-            ++goal_terminations_;
-          }
+          term = g.terminated;
+          trunc = g.truncated;
+          goal_terminations_ += g.by_goal_task ? 1 : 0;
         }
         buf_.terminated[static_cast<std::size_t>(c0 + e)] = term ? 1 : 0;
         buf_.truncated[static_cast<std::size_t>(c0 + e)] = (!term && trunc) ? 1 : 0;
         any_truncated |= (!term && trunc);
         if (term || trunc) {
           masks_.new_episode(e);
-          if (setup_.goal) setup_.goal.new_episode(task_.sim(), e);
         } else {
           masks_.maybe_switch(e);
         }

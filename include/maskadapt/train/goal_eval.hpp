@@ -1,0 +1,94 @@
+#pragma once
+/// \file goal_eval.hpp
+/// Success rate of a stage-2 policy on a goal task (location, heading, strike; the paper's
+/// Table 3): `sim`'s envs run the policy (mean by default) with a fixed adapted-part mask while the
+/// goal task draws goals on its own schedule; fallen envs are reset by RSI and keep running. The
+/// run stops once at least `min_trials` trials have ended (a trial: one goal, see
+/// tasks/goal_task.hpp) and reports the success rate with its Wilson 95 % interval over the
+/// trials that ended. It refuses to report fewer trials: a `max_steps` budget that ends first
+/// throws, naming the count reached.
+///
+/// Actions go to the simulator as the PD targets offset + scale ⊙ â of the base's action space,
+/// exactly as in training; the goal task's side of every step is tasks::advance_goal, the same
+/// function the trainer calls.
+#include <maskadapt/adapt/residual_policy.hpp>
+#include <maskadapt/core/error.hpp>
+#include <maskadapt/core/rng.hpp>
+#include <maskadapt/sim/termination.hpp>
+#include <maskadapt/tasks/goal_task.hpp>
+#include <maskadapt/tasks/imitation.hpp>
+
+#include <optional>
+#include <string>
+
+namespace maskadapt::train {
+
+struct GoalEvalOptions {
+  long long min_trials = 100;      ///< stop once this many trials have ended
+  long long max_steps = 100000;    ///< control steps (per env) before giving up
+  double episode_seconds = 10.0;   ///< episode limit (s)
+  bool deterministic = true;       ///< policy mean (false: sample)
+  std::uint64_t seed = 1;
+};
+
+struct GoalEvalResult {
+  std::string task;
+  tasks::TrialCounter trials;
+  double ci_low = 0, ci_high = 1;  ///< Wilson 95 % interval of the success rate
+  double mean_reward = 0;          ///< the goal task's reward, mean over env-steps
+  double fall_rate = NAN;          ///< falls / ended episodes
+  long long steps = 0;             ///< control steps per env it took
+};
+
+/// See the file comment. `goal` is copied: the caller's task is left as it was.
+template <Simulator Sim>
+GoalEvalResult evaluate_goal_task(Sim& sim, const adapt::ResidualPolicy<float>& policy, tasks::AnyGoalTask<Sim> goal,
+                                  PartMask mask, tasks::ResetSampler reset, std::optional<FallCriteria> fall,
+                                  const GoalEvalOptions& opt, ThreadPool* pool = nullptr) {
+  require(static_cast<bool>(goal), "no goal task to evaluate", {{}, {}, "task"});
+  require(opt.min_trials >= 1 && opt.max_steps >= 1, "min_trials and max_steps must be >= 1", {{}, {}, "trials"});
+  tasks::ImitationTaskConfig tc;
+  tc.fall = std::move(fall);
+  tc.episode_seconds = opt.episode_seconds;
+  tc.masking = false;
+  tc.actions = policy.actions();  // the task steps with offset + scale ⊙ â
+  tasks::ImitationTask<Sim> task(sim, std::move(reset), tc, opt.seed, pool);
+  require(policy.obs_dim() == task.obs_dim() && policy.action_dim() == task.action_dim() && policy.goal_dim() == goal.goal_dim(),
+          "the residual policy does not fit this simulator / goal task (goal rows " + std::to_string(policy.goal_dim()) +
+              " vs the task's " + std::to_string(goal.goal_dim()) + ")",
+          {{}, {}, "checkpoint"});
+  const Index N = task.num_envs();
+  for (Index e = 0; e < N; ++e) goal.new_episode(sim, e);
+  goal.clear_trials();
+  const PartElements pe(task.obs_parts());
+  const std::vector<PartMask> masks(static_cast<std::size_t>(N), mask);
+  MatrixXf goals(goal.goal_dim(), N), x, mu, actions;
+  RowVectorX<float> logp;
+  adapt::ResidualWorkspace<float> ws;
+  Rng rng = Rng::stream(opt.seed, 0x60A1ULL);
+  task.stats().clear();
+  GoalEvalResult r;
+  r.task = goal.name();
+  double reward_sum = 0;
+  long long t = 0;
+  for (; t < opt.max_steps && goal.trials().trials < opt.min_trials; ++t) {
+    for (Index e = 0; e < N; ++e) goal.goal(sim, e, goals.col(e));
+    policy.build_input(pe, task.observations(), masks, goals, x, ws);
+    if (opt.deterministic) policy.mean(x, masks, actions, ws);
+    else policy.act(x, masks, rng, actions, logp, mu, ws);
+    task.step(actions);
+    for (Index e = 0; e < N; ++e) reward_sum += tasks::advance_goal(goal, task, e).reward;
+  }
+  require(goal.trials().trials >= opt.min_trials,
+          "only " + std::to_string(goal.trials().trials) + " trials ended within " + std::to_string(opt.max_steps) +
+              " steps (need " + std::to_string(opt.min_trials) + "; raise the step budget or the env count)",
+          {{}, {}, "max_steps"});
+  r.trials = goal.trials();
+  std::tie(r.ci_low, r.ci_high) = r.trials.wilson95();
+  r.steps = t;
+  r.mean_reward = reward_sum / static_cast<double>(t * N);
+  r.fall_rate = task.stats().fall_rate();
+  return r;
+}
+
+}  // namespace maskadapt::train
