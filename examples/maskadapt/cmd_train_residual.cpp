@@ -16,6 +16,7 @@
 #include <maskadapt/tracking/builtin_generator.hpp>
 #include <maskadapt/tracking/text_pool.hpp>
 #include <maskadapt/train/motion_sources.hpp>
+#include <maskadapt/train/goal_eval.hpp>
 #include <maskadapt/train/residual_eval.hpp>
 #include <maskadapt/tasks/heading.hpp>
 #include <maskadapt/tasks/location.hpp>
@@ -29,6 +30,7 @@
 #endif
 
 #include <algorithm>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <iostream>
@@ -92,8 +94,35 @@ std::vector<std::string> default_text_pool(const Skeleton& skel) {
 /// The goal-driven tasks (tasks/location.hpp, heading.hpp, strike.hpp).
 bool is_goal_task(const std::string& task) { return task == "location" || task == "heading" || task == "strike"; }
 
-/// The strike task's box (sim/scene.hpp): 0.4 × 0.4 × 1.2 m, 5 kg.
-BoxObject strike_box() { return BoxObject{}; }
+/// The scene objects a task needs: strike's box (sim/scene.hpp; 0.4 × 0.4 × 1.2 m, 5 kg).
+std::vector<BoxObject> task_objects(const std::string& task) {
+  if (task == "strike") return {BoxObject{}};
+  return {};
+}
+
+#ifdef MASKADAPT_HAS_MUJOCO
+/// The goal task of a run (tasks/location.hpp, heading.hpp, strike.hpp; their defaults), for
+/// `sim`'s envs; `seed` seeds its goal streams. Strike bodies: the hands.
+tasks::AnyGoalTask<MujocoHumanoidSim> make_goal_task(const std::string& task, const MujocoHumanoidSim& sim, std::uint64_t seed) {
+  const auto N = static_cast<Index>(sim.num_envs());
+  if (task == "location") {
+    tasks::LocationConfig lc;
+    lc.seed = seed;
+    return tasks::LocationTask(lc, N);
+  }
+  if (task == "heading") {
+    tasks::HeadingConfig hc;
+    hc.seed = seed;
+    return tasks::HeadingTask(hc, N);
+  }
+  require(task == "strike" && sim.num_objects() == 1, "no goal task '" + task + "' for this scene", {{}, {}, "--task"});
+  tasks::StrikeConfig sc;
+  sc.seed = seed;
+  sc.box_half_height = sim.objects().front().half_size.z();
+  sc.strike_bodies = tasks::bodies_by_name(sim.skeleton(), {"L_Wrist", "R_Wrist"});
+  return tasks::StrikeTask(sc, N);
+}
+#endif
 
 /// Builds the reward sources of a run.
 template <Simulator Sim>
@@ -225,9 +254,7 @@ void run_train_residual(const Args& a) {
   std::shared_ptr<MotionLibrary> new_lib =
       c.task != "tracking" && !c.new_motions.empty() ? load_motion_library(c.new_motions, data_dir()) : base_lib;
   ThreadPool pool(static_cast<std::size_t>(c.rl.run.threads));
-  std::vector<BoxObject> objects;
-  if (c.task == "strike") objects.push_back(strike_box());
-  MujocoHumanoidSim sim(static_cast<std::size_t>(c.rl.env.num_envs), pool, humanoid_description(), objects);
+  MujocoHumanoidSim sim(static_cast<std::size_t>(c.rl.env.num_envs), pool, humanoid_description(), task_objects(c.task));
   const Index obs_dim = observation_dim(sim.skeleton()), A = sim.skeleton().num_dofs();
   // The frozen base and its action space (PD target = offset + scale ⊙ â). Resume: placeholders,
   // replaced by the checkpoint's base/ sections (action space included) in trainer.load. Scratch:
@@ -251,22 +278,7 @@ void run_train_residual(const Args& a) {
     setup.goal_weight = c.objective_weights.size() > 1 ? c.objective_weights[1] : 0.5;
   }
   if (is_goal_task(c.task)) {
-    const auto N = static_cast<Index>(sim.num_envs());
-    if (c.task == "location") {
-      tasks::LocationConfig lc;
-      lc.seed = c.rl.run.seed;
-      setup.goal = tasks::LocationTask(lc, N);
-    } else if (c.task == "heading") {
-      tasks::HeadingConfig hc;
-      hc.seed = c.rl.run.seed;
-      setup.goal = tasks::HeadingTask(hc, N);
-    } else {
-      tasks::StrikeConfig sc;
-      sc.seed = c.rl.run.seed;
-      sc.box_half_height = objects.front().half_size.z();
-      sc.strike_bodies = tasks::bodies_by_name(sim.skeleton(), {"L_Wrist", "R_Wrist"});
-      setup.goal = tasks::StrikeTask(sc, N);
-    }
+    setup.goal = make_goal_task(c.task, sim, c.rl.run.seed);
     setup.goal_weight = c.objective_weights.empty() ? 0.5 : c.objective_weights.back();
   }
   std::cout << "train-residual: task " << c.task << ", method " << c.method << ", masks";
@@ -403,10 +415,10 @@ struct EvalArgs {
   std::string checkpoint, task, out, generator, mask;
   std::vector<std::string> new_motion, motions, prompts;
   int envs = 10, repeats = 3, num_prompts = 10;
-  long long frames = 1000, seed = 1;
+  long long frames = 1000, seed = 1, trials = 100;
   double seconds = 5.0, threshold_per_body = 0.1;
   bool stochastic = false;
-  std::vector<std::string> composition_only, tracking_only;  ///< such flags given on the command line
+  std::vector<std::string> composition_only, tracking_only, goal_only;  ///< such flags given on the command line
 };
 
 void run_eval(const EvalArgs& a) {
@@ -422,14 +434,48 @@ void run_eval(const EvalArgs& a) {
   }
   const std::string task = a.task.empty() ? c.task : a.task;
   require(task == c.task, "this checkpoint was trained for " + c.task + ", not " + task, {{}, {}, "--task"});
-  require_task_flags(task == "tracking" ? a.composition_only : a.tracking_only, task,
-                     task == "tracking" ? "composition" : "tracking");
+  if (is_goal_task(task)) {  // goal tasks read --envs and --mask of the composition flags
+    std::vector<std::string> refused = a.tracking_only;
+    for (const auto& f : a.composition_only)
+      if (f != "--envs" && f != "--mask") refused.push_back(f);
+    require_task_flags(refused, task, "composition / tracking");
+  } else {
+    require_task_flags(task == "tracking" ? a.composition_only : a.tracking_only, task,
+                       task == "tracking" ? "composition" : "tracking");
+    require_task_flags(a.goal_only, task, "location / heading / strike");
+  }
   auto base_lib = load_motion_library(a.motions.empty() ? c.rl.env.motions : a.motions, data_dir());
   nlohmann::json j;
   j["checkpoint"] = a.checkpoint;
   j["task"] = task;
   j["method"] = c.method;
-  if (task == "composition") {
+  if (is_goal_task(task)) {
+    ThreadPool pool(static_cast<std::size_t>(c.rl.run.threads));
+    MujocoHumanoidSim sim(static_cast<std::size_t>(a.envs), pool, humanoid_description(), task_objects(task));
+    const auto pol = residual_policy_from_checkpoint(ck, sim.skeleton());
+    // the mask the policy runs with: --mask, else the first training mask (scratch: every part)
+    const PartMask mask = c.method == "scratch" ? PartMask::all() : PartMask::parse(a.mask.empty() ? c.masks.front() : a.mask, "--mask");
+    GoalEvalOptions opt;
+    opt.min_trials = a.trials;
+    opt.deterministic = !a.stochastic;
+    opt.seed = static_cast<std::uint64_t>(a.seed);
+    opt.episode_seconds = c.rl.env.episode_seconds;
+    const GoalEvalResult r = evaluate_goal_task(sim, pol, make_goal_task(task, sim, opt.seed), mask, library_reset_sampler(base_lib),
+                                                std::nullopt, opt, &pool);
+    std::printf("eval-residual %s: success %.1f %% (95 %% CI %.1f-%.1f %%) over %lld trials; %d envs x %lld steps, mask %s, "
+                "mean %s reward %.3f, fall rate %.3f\n",
+                task.c_str(), 100 * r.trials.rate(), 100 * r.ci_low, 100 * r.ci_high, r.trials.trials, a.envs, r.steps,
+                mask.to_string().c_str(), task.c_str(), r.mean_reward, r.fall_rate);
+    j["envs"] = a.envs;
+    j["mask"] = mask.to_string();
+    j["trials"] = r.trials.trials;
+    j["successes"] = r.trials.successes;
+    j["success_rate"] = r.trials.rate();
+    j["ci95"] = {r.ci_low, r.ci_high};
+    j["steps"] = r.steps;
+    j["mean_reward"] = r.mean_reward;
+    j["fall_rate"] = std::isfinite(r.fall_rate) ? nlohmann::json(r.fall_rate) : nlohmann::json(nullptr);
+  } else if (task == "composition") {
     auto new_lib = load_motion_library(a.new_motion.empty() ? c.new_motions : a.new_motion, data_dir());
     ThreadPool pool(static_cast<std::size_t>(c.rl.run.threads));
     MujocoHumanoidSim sim(static_cast<std::size_t>(a.envs), pool);
@@ -580,8 +626,8 @@ const bool registered = maskadapt::cli::register_command([](CLI::App& app) {
   auto e = std::make_shared<EvalArgs>();
   CLI::App* v = app.add_subcommand("eval-residual", "Evaluate a residual checkpoint: composition H_norm or tracking metrics");
   v->add_option("checkpoint", e->checkpoint, "train-residual checkpoint")->required();
-  v->add_option("--task", e->task, "composition | tracking (default: the checkpoint's)")
-      ->check(one_of({"composition", "tracking"}));
+  v->add_option("--task", e->task, "composition | tracking | location | heading | strike (default: the checkpoint's)")
+      ->check(one_of({"composition", "tracking", "location", "heading", "strike"}));
   v->add_option("--mask", e->mask, "composition: evaluate this adapted mask (default: each training mask)")
       ->check(mask_name);
   v->add_option("--new-motion", e->new_motion, "composition: new motion set B (default: the training set)");
@@ -597,6 +643,8 @@ const bool registered = maskadapt::cli::register_command([](CLI::App& app) {
   v->add_option("--repeats", e->repeats, "tracking: repeats per prompt (default 3; one env each)")
       ->transform(integer_in(1, kMaxEnvs));
   v->add_option("--generator", e->generator, "tracking: generator checkpoint (default: the one trained with)");
+  v->add_option("--trials", e->trials, "location / heading / strike: trials to end before reporting (default 100)")
+      ->transform(positive_integer());
   v->add_flag("--stochastic", e->stochastic, "sample actions instead of the policy mean");
   v->add_option("--seed", e->seed, "seed")->transform(non_negative_integer());
   v->add_option("--out", e->out, "write the results as JSON");
@@ -605,6 +653,7 @@ const bool registered = maskadapt::cli::register_command([](CLI::App& app) {
       if (v->count(f) > 0) e->composition_only.push_back(f);
     for (const char* f : {"--prompts", "--num-prompts", "--seconds", "--repeats", "--generator"})
       if (v->count(f) > 0) e->tracking_only.push_back(f);
+    if (v->count("--trials") > 0) e->goal_only.push_back("--trials");
     run_eval(*e);
   });
 });
