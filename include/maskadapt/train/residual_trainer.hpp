@@ -65,6 +65,7 @@
 #include <maskadapt/train/config.hpp>
 #include <maskadapt/train/progress.hpp>
 #include <maskadapt/train/residual_config.hpp>
+#include <maskadapt/train/reward_discriminators.hpp>
 #include <maskadapt/train/task_state.hpp>
 
 #include <nlohmann/json.hpp>
@@ -77,18 +78,6 @@
 namespace maskadapt::train {
 
 using RowVectorXf = RowVectorX<float>;
-
-/// One reward source backed by a discriminator.
-struct DiscriminatorSource {
-  std::string name;
-  double weight = 1.0;
-  std::vector<Index> rows;   ///< rows of the 5-frame window it sees (empty: all)
-  bool conditioned = false;  ///< D(·|m): the 5 mask bits as conditioning input
-  /// B real samples: full windows (window_dim × B) and mask bits (5 × B; ignored if unconditioned).
-  std::function<void(Rng&, Index, MatrixXf&, MatrixXf&)> real;
-  /// Optional negative-expert samples (same layout), labelled fake.
-  std::function<void(Rng&, Index, MatrixXf&, MatrixXf&)> negative;
-};
 
 /// What a residual run trains against.
 template <Simulator Sim>
@@ -140,22 +129,7 @@ class ResidualTrainer {
     actor_opt_ = nn::Adam<float>({cfg_.rl.ppo.actor_lr, 0.9, 0.999, 1e-8, 0.0, false, cfg_.rl.ppo.max_grad_norm});
     critic_opt_ = nn::Adam<float>({cfg_.rl.ppo.critic_lr, 0.9, 0.999, 1e-8, 0.0, false, cfg_.rl.ppo.max_grad_norm});
     const Index W = task_.amp_dim();
-    for (const auto& src : setup_.discriminators) {
-      require(static_cast<bool>(src.real), "discriminator '" + src.name + "' has no real sampler", {{}, {}, "setup"});
-      rl::DiscriminatorConfig dc;
-      dc.feature_dim = src.rows.empty() ? W : static_cast<Index>(src.rows.size());
-      dc.cond_dim = src.conditioned ? kNumParts : 0;
-      dc.hidden = cfg_.rl.net.disc_hidden;
-      dc.activation = rc.activation;
-      dc.loss = cfg_.rl.disc.lsgan ? rl::DiscriminatorLoss::LSGAN : rl::DiscriminatorLoss::BCE;
-      dc.grad_penalty = cfg_.rl.disc.gradient_penalty;
-      dc.logit_reg = cfg_.rl.disc.logit_reg;
-      dc.weight_decay = cfg_.rl.disc.weight_decay;
-      dc.lr = cfg_.rl.disc.lr;
-      dc.reward_scale = cfg_.rl.disc.reward_scale;
-      discs_.add(src.name, rl::Discriminator<float>(dc, init), src.weight);
-      replays_.emplace_back(dc.feature_dim + dc.cond_dim, cfg_.rl.disc.replay_size);
-    }
+    discs_ = RewardDiscriminators(setup_.discriminators, W, cfg_.rl, rc.activation, setup_.negative_fraction, init);
     rl::RolloutSpec spec;
     spec.horizon = cfg_.rl.ppo.horizon;
     spec.num_envs = N;
@@ -175,7 +149,7 @@ class ResidualTrainer {
   /// The last iteration's rollout (actions: the composite â, base units).
   const rl::RolloutBuffer<float>& rollout() const { return buf_; }
   tasks::ImitationTask<Sim>& task() { return task_; }
-  const rl::DiscriminatorSet<float>& discriminators() const { return discs_; }
+  const rl::DiscriminatorSet<float>& discriminators() const { return discs_.set(); }
   Index num_objectives() const { return K_; }
   long long iteration() const { return iteration_; }
   long long samples() const { return samples_; }
@@ -214,7 +188,7 @@ class ResidualTrainer {
     rl::compute_gae(buf_, rl::GaeParams{cfg_.rl.ppo.gamma, cfg_.rl.ppo.gae_lambda});
     update_policy(st);
     Stopwatch disc_update;
-    update_discriminators(st);
+    discs_.update(buf_.amp_windows, buf_.masks, rng_, st);
     st.time_disc += disc_update.seconds();
     st.time_update += upd.seconds();
     ++iteration_;
@@ -233,12 +207,7 @@ class ResidualTrainer {
     save_norm(c, "critic/norm", critic_.normalizer);
     c.put("popart/mean", popart_.mean());
     c.put("popart/nu", popart_.second_moment());
-    for (Index k = 0; k < discs_.size(); ++k) {
-      const auto& d = discs_.members[static_cast<std::size_t>(k)];
-      const std::string p = "disc/" + std::to_string(k);
-      c.put(p + "/params", d.net().params());
-      save_norm(c, p + "/norm", d.normalizer());
-    }
+    discs_.save(c);
     c.put_int("trainer/iteration", iteration_);
     c.put_int("trainer/samples", samples_);
     save_training_state(c);
@@ -256,12 +225,7 @@ class ResidualTrainer {
     c.copy_to<float>("critic/params", critic_.net.params());
     load_norm(c, "critic/norm", critic_.normalizer);
     popart_.set_state(c.get_vector<double>("popart/mean", K_), c.get_vector<double>("popart/nu", K_));
-    for (Index k = 0; k < discs_.size(); ++k) {
-      auto& d = discs_.members[static_cast<std::size_t>(k)];
-      const std::string p = "disc/" + std::to_string(k);
-      c.copy_to<float>(p + "/params", d.net().params());
-      load_norm(c, p + "/norm", d.normalizer());
-    }
+    discs_.load(c);
     iteration_ = c.get_int("trainer/iteration");
     samples_ = c.get_int("trainer/samples");
     if (c.contains("state/rng")) load_training_state(c);
@@ -277,16 +241,7 @@ class ResidualTrainer {
     c.put_int("state/actor_steps", actor_opt_.step_count());
     c.put_double("state/actor_lr", actor_opt_.config().lr);
     c.put_int("state/critic_steps", critic_opt_.step_count());
-    for (Index k = 0; k < discs_.size(); ++k) {
-      auto& d = self.discs_.members[static_cast<std::size_t>(k)];
-      const std::string p = "state/disc/" + std::to_string(k);
-      c.put(p + "/block", d.net().block().storage());
-      c.put_int(p + "/steps", d.optimizer().step_count());
-      const auto& r = replays_[static_cast<std::size_t>(k)];
-      c.put(p + "/replay", r.storage());
-      c.put_int(p + "/replay_size", r.size());
-      c.put_int(p + "/replay_head", r.head());
-    }
+    discs_.save_state(c);
     c.put_rng("state/rng", rng_);
     const Index N = task_.num_envs();
     VectorX<std::int64_t> masks(N);
@@ -310,15 +265,7 @@ class ResidualTrainer {
       actor_opt_.config().lr = lr;
     }
     critic_opt_.set_step_count(c.get_int("state/critic_steps"));
-    for (Index k = 0; k < discs_.size(); ++k) {
-      auto& d = discs_.members[static_cast<std::size_t>(k)];
-      const std::string p = "state/disc/" + std::to_string(k);
-      c.copy_to<float>(p + "/block", d.net().block().storage());
-      d.optimizer().set_step_count(c.get_int(p + "/steps"));
-      auto& r = replays_[static_cast<std::size_t>(k)];
-      r.restore(c.get_matrix<float>(p + "/replay", r.storage().rows(), r.storage().cols()), c.get_int(p + "/replay_size"),
-                c.get_int(p + "/replay_head"));
-    }
+    discs_.load_state(c);
     rng_.set_state(c.get_rng("state/rng"));
     const Index N = task_.num_envs();
     const auto masks = c.get_vector<std::int64_t>("state/masks", N);
@@ -431,33 +378,13 @@ class ResidualTrainer {
   }
 
   // ---- 2. rewards -------------------------------------------------------------------------
-  void member_inputs(std::size_t k, const Eigen::Ref<const MatrixXf>& windows, const std::vector<PartMask>& masks,
-                     MatrixXf& feat, MatrixXf& cond) const {
-    const auto& src = setup_.discriminators[k];
-    if (src.rows.empty()) feat = windows;
-    else tasks::select_rows(windows, src.rows, feat);
-    if (src.conditioned) cond = tasks::mask_bits(masks);
-    else cond.resize(0, windows.cols());
-  }
-
   void compute_rewards(IterationStats& st) {
-    MatrixXf feat, cond;
-    for (std::size_t k = 0; k < setup_.discriminators.size(); ++k) {
-      member_inputs(k, buf_.amp_windows, buf_.masks, feat, cond);
-      buf_.rewards.row(static_cast<Index>(k)) = discs_.members[k].reward(feat, cond);
-    }
+    discs_.rewards(buf_.amp_windows, buf_.masks, buf_.rewards, K_ > 1, st);
     if (setup_.goal) {
       buf_.rewards.row(K_ - 1) = goal_rewards_;
       last_goal_reward_ = goal_rewards_.cast<double>().mean();
       st.extra[setup_.goal.name() + "_reward"] = last_goal_reward_;
     }
-    for (std::size_t k = 0; k < setup_.discriminators.size() && K_ > 1; ++k)
-      st.extra["reward_" + setup_.discriminators[k].name] = buf_.rewards.row(static_cast<Index>(k)).cast<double>().mean();
-    double w = 0;
-    for (Index k = 0; k < static_cast<Index>(setup_.discriminators.size()); ++k) {
-      w += weights_[static_cast<std::size_t>(k)] * buf_.rewards.row(k).cast<double>().mean();
-    }
-    st.disc_reward = w;
   }
 
   // ---- 3. PPO on the residual -------------------------------------------------------------
@@ -540,67 +467,6 @@ class ResidualTrainer {
     st.actor_lr = actor_opt_.config().lr;  // moves under ppo.actor_lr_schedule = adaptive
   }
 
-  // ---- 4. discriminators ------------------------------------------------------------------
-  void update_discriminators(IterationStats& st) {
-    const Index n = buf_.size(), B = cfg_.rl.disc.batch_size, half = B / 2;
-    const Index steps = std::max<Index>(1, cfg_.rl.disc.epochs * n / B);
-    double sum_real = 0, sum_fake = 0, sum_loss = 0, sum_gp = 0;
-    int count = 0;
-    MatrixXf real_w, real_c, real_f, agent_w, feat, cond, fake, neg_w, neg_c, neg_f, stacked, rep;
-    std::vector<PartMask> ms(static_cast<std::size_t>(B - half));
-    for (std::size_t k = 0; k < setup_.discriminators.size(); ++k) {
-      const auto& src = setup_.discriminators[k];
-      auto& d = discs_.members[k];
-      const Index F = d.config().feature_dim, C = d.config().cond_dim;
-      const Index n_neg = (src.conditioned && src.negative) ? static_cast<Index>(setup_.negative_fraction * static_cast<double>(B)) : 0;
-      for (Index s = 0; s < steps; ++s) {
-        src.real(rng_, B, real_w, real_c);
-        std::vector<PartMask> none;
-        if (src.rows.empty()) real_f = real_w;
-        else tasks::select_rows(real_w, src.rows, real_f);
-        // fresh agent windows with their masks
-        agent_w.resize(buf_.amp_windows.rows(), B - half);
-        for (Index j = 0; j < B - half; ++j) {
-          const auto c = static_cast<Index>(rng_.uniform_int(static_cast<std::uint64_t>(n)));
-          agent_w.col(j) = buf_.amp_windows.col(c);
-          ms[static_cast<std::size_t>(j)] = buf_.masks[static_cast<std::size_t>(c)];
-        }
-        member_inputs(k, agent_w, ms, feat, cond);
-        stacked.resize(F + C, B - half);
-        stacked.topRows(F) = feat;
-        if (C > 0) stacked.bottomRows(C) = cond;
-        rl::mix_with_replay<float>(stacked, replays_[k], half, rng_, fake);
-        if (n_neg > 0) {
-          src.negative(rng_, n_neg, neg_w, neg_c);
-          if (src.rows.empty()) neg_f = neg_w;
-          else tasks::select_rows(neg_w, src.rows, neg_f);
-          const Index keep = std::max<Index>(1, fake.cols() - n_neg);
-          fake.conservativeResize(F + C, keep + n_neg);
-          fake.block(0, keep, F, n_neg) = neg_f;
-          fake.block(F, keep, C, n_neg) = neg_c;
-        }
-        if (s == 0) {
-          d.update_normalizer(real_f);
-          d.update_normalizer(feat);
-        }
-        const auto ds = d.update(real_f, src.conditioned ? MatrixXf(real_c) : MatrixXf(0, B), fake.topRows(F),
-                                 C > 0 ? MatrixXf(fake.bottomRows(C)) : MatrixXf(0, fake.cols()));
-        if (ds.skipped) ++st.skipped_updates;
-        sum_real += ds.real_mean;
-        sum_fake += ds.fake_mean;
-        sum_loss += ds.loss;
-        sum_gp += ds.grad_penalty;
-        ++count;
-      }
-    }
-    if (count > 0) {
-      st.disc_real = sum_real / count;
-      st.disc_fake = sum_fake / count;
-      st.disc_loss = sum_loss / count;
-      st.disc_grad_penalty = sum_gp / count;
-    }
-  }
-
   ResidualTrainConfig cfg_;
   ResidualSetup<Sim> setup_;
   tasks::ImitationTask<Sim> task_;
@@ -610,8 +476,7 @@ class ResidualTrainer {
   adapt::ResidualPolicy<float> policy_;
   rl::Critic<float> critic_;
   nn::PopArt<float> popart_;
-  rl::DiscriminatorSet<float> discs_;
-  std::vector<rl::ReplayBuffer<float>> replays_;
+  RewardDiscriminators discs_;
   std::vector<double> weights_;
   Index K_ = 1;
   nn::Adam<float> actor_opt_, critic_opt_;
