@@ -1,8 +1,9 @@
 # cmake -DCLI=… -DCONFIG=…/configs/smoke.json -DDATA=…/motions/cmu -DOUT=… -P smoke_residual.cmake
 # Stage 2 end to end on the MuJoCo humanoid with tiny sizes: a 1-iteration base, train-residual
 # composition (ours and cml) and tracking (with a 2-iteration generator), a resume, play-residual
-# with a mask schedule and with a text schedule (BVH + viewer rollout), and eval-residual for both
-# tasks (shrunk), and a composition run + resume + play + eval on a base with normalised actions.
+# with a mask schedule and with a text schedule (BVH + viewer rollout), eval-residual for both
+# tasks (shrunk), a composition run + resume + play + eval on a base with normalised actions, and
+# the goal tasks (location, heading, strike: train, a strike resume, eval's success rate).
 # Every output must exist and parse.
 file(REMOVE_RECURSE ${OUT})
 file(MAKE_DIRECTORY ${OUT})
@@ -108,5 +109,31 @@ endforeach()
 run("play-residual (normalised base)" play-residual ${OUT}/comp_norm/checkpoint.bin --seconds 0.5 --bvh ${OUT}/comp_norm.bvh)
 run("eval-residual (normalised base)" eval-residual ${OUT}/comp_norm/checkpoint.bin --envs 2 --frames 10 --out ${OUT}/eval_norm.json)
 require_json(${OUT}/eval_norm.json)
+
+# Goal tasks: one iteration each (location and heading on the base motion, strike with the box and
+# a composed kick), a strike resume (the box's state travels in the checkpoint), and eval-residual's
+# success rate over a few trials.
+foreach(task location heading strike)
+  set(extra)
+  if(task STREQUAL "strike")
+    set(extra --new-motion kick --masks lower_body)
+  endif()
+  run("train-residual ${task}" train-residual --task ${task} --base ${BASE} ${extra} --iterations 1 ${tiny} --out ${OUT}/goal_${task})
+  file(STRINGS ${OUT}/goal_${task}/log.jsonl lines)
+  list(GET lines 0 first)
+  string(JSON gr ERROR_VARIABLE e GET "${first}" ${task}_reward)
+  if(e OR gr STREQUAL "null")
+    message(FATAL_ERROR "goal_${task}/log.jsonl has no ${task}_reward column: ${first}")
+  endif()
+  run("eval-residual ${task}" eval-residual ${OUT}/goal_${task}/checkpoint.bin --envs 2 --trials 2 --out ${OUT}/eval_${task}.json)
+  require_json(${OUT}/eval_${task}.json)
+  file(READ ${OUT}/eval_${task}.json j)
+  string(JSON trials GET "${j}" trials)
+  string(JSON rate GET "${j}" success_rate)
+  if(trials LESS 2)
+    message(FATAL_ERROR "eval_${task}.json: ${trials} trials, expected >= 2")
+  endif()
+endforeach()
+run("train-residual --resume (strike)" train-residual --resume ${OUT}/goal_strike/checkpoint.bin --iterations 2 --out ${OUT}/goal_strike)
 
 message(STATUS "stage-2 CLI smoke OK: composition ours/cml + resume, tracking, play (mask/text), eval (H_norm adapted ${h}, success ${sr})")
