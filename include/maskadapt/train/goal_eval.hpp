@@ -17,6 +17,7 @@
 #include <maskadapt/sim/termination.hpp>
 #include <maskadapt/tasks/goal_task.hpp>
 #include <maskadapt/tasks/imitation.hpp>
+#include <maskadapt/train/residual_eval.hpp>
 
 #include <optional>
 #include <string>
@@ -47,12 +48,8 @@ GoalEvalResult evaluate_goal_task(Sim& sim, const adapt::ResidualPolicy<float>& 
                                   const GoalEvalOptions& opt, ThreadPool* pool = nullptr) {
   require(static_cast<bool>(goal), "no goal task to evaluate", {{}, {}, "task"});
   require(opt.min_trials >= 1 && opt.max_steps >= 1, "min_trials and max_steps must be >= 1", {{}, {}, "trials"});
-  tasks::ImitationTaskConfig tc;
-  tc.fall = std::move(fall);
-  tc.episode_seconds = opt.episode_seconds;
-  tc.masking = false;
-  tc.actions = policy.actions();  // the task steps with offset + scale ⊙ â
-  tasks::ImitationTask<Sim> task(sim, std::move(reset), tc, opt.seed, pool);
+  tasks::ImitationTask<Sim> task(sim, std::move(reset), evaluation_task_config(policy, std::move(fall), opt.episode_seconds),
+                                 opt.seed, pool);
   require(policy.obs_dim() == task.obs_dim() && policy.action_dim() == task.action_dim() && policy.goal_dim() == goal.goal_dim(),
           "the residual policy does not fit this simulator / goal task (goal rows " + std::to_string(policy.goal_dim()) +
               " vs the task's " + std::to_string(goal.goal_dim()) + ")",

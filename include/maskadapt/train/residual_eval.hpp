@@ -67,6 +67,19 @@ struct CompositionResult {
   long long falls = 0;
 };
 
+/// The imitation task an evaluation steps the policy in: RSI resets, falls and the episode limit,
+/// no masking of its own (the policy's masks are the evaluation's), and the policy's action space
+/// (the task sends offset + scale ⊙ â to the simulator).
+inline tasks::ImitationTaskConfig evaluation_task_config(const adapt::ResidualPolicy<float>& policy, std::optional<FallCriteria> fall,
+                                                         double episode_seconds) {
+  tasks::ImitationTaskConfig tc;
+  tc.fall = std::move(fall);
+  tc.episode_seconds = episode_seconds;
+  tc.masking = false;
+  tc.actions = policy.actions();
+  return tc;
+}
+
 /// Number of non-root bodies in `parts`.
 inline int bodies_in(const Skeleton& skel, PartMask parts) {
   int n = 0;
@@ -105,12 +118,8 @@ CompositionResult evaluate_composition(Sim& sim, const adapt::ResidualPolicy<flo
   require(!mask.empty() && mask != PartMask::all(), "the adapted mask must be neither empty nor every part",
           {{}, {}, "mask"});
   const Skeleton& skel = sim.skeleton();
-  tasks::ImitationTaskConfig tc;
-  tc.fall = std::move(fall);
-  tc.episode_seconds = opt.episode_seconds;
-  tc.masking = false;
-  tc.actions = policy.actions();  // the task steps with offset + scale ⊙ â
-  tasks::ImitationTask<Sim> task(sim, std::move(reset), tc, opt.seed, pool);
+  tasks::ImitationTask<Sim> task(sim, std::move(reset), evaluation_task_config(policy, std::move(fall), opt.episode_seconds),
+                                 opt.seed, pool);
   require(policy.obs_dim() == task.obs_dim() && policy.action_dim() == task.action_dim() && policy.goal_dim() == 0,
           "the residual policy does not fit this simulator / task (composition needs no goals)", {{}, {}, "checkpoint"});
   const Index N = task.num_envs();

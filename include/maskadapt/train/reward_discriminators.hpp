@@ -50,17 +50,11 @@ class RewardDiscriminators {
       : sources_(std::move(sources)), disc_(rl.disc), negative_fraction_(negative_fraction) {
     for (const auto& src : sources_) {
       require(static_cast<bool>(src.real), "discriminator '" + src.name + "' has no real sampler", {{}, {}, "setup"});
-      rl::DiscriminatorConfig dc;
-      dc.feature_dim = src.rows.empty() ? window_dim : static_cast<Index>(src.rows.size());
+      rl::DiscriminatorConfig dc = discriminator_config(rl, src.rows.empty() ? window_dim : static_cast<Index>(src.rows.size()));
       dc.cond_dim = src.conditioned ? kNumParts : 0;
-      dc.hidden = rl.net.disc_hidden;
       dc.activation = activation;
-      dc.loss = rl.disc.lsgan ? rl::DiscriminatorLoss::LSGAN : rl::DiscriminatorLoss::BCE;
-      dc.grad_penalty = rl.disc.gradient_penalty;
-      dc.logit_reg = rl.disc.logit_reg;
-      dc.weight_decay = rl.disc.weight_decay;
-      dc.lr = rl.disc.lr;
-      dc.reward_scale = rl.disc.reward_scale;
+      // stage 2 has never clipped its discriminators' gradient norm (the Table 2 runs): keep it so
+      dc.max_grad_norm = rl::DiscriminatorConfig{}.max_grad_norm;
       set_.add(src.name, rl::Discriminator<float>(dc, init), src.weight);
       replays_.emplace_back(dc.feature_dim + dc.cond_dim, rl.disc.replay_size);
     }
