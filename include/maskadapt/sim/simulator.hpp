@@ -24,6 +24,10 @@
 /// Implementations must reject non-finite targets with `maskadapt::Error` and must never report
 /// non-finite body states: an env whose physics fails is reset (to its last reset pose) and
 /// flagged in `StepStats::physics_reset`, so the caller can end that episode.
+///
+/// Refinements: `tasks::StateSavingSimulator` (tasks/imitation.hpp: save/load one env's exact
+/// state, for bit-exact resume) and `SceneSimulator` (sim/scene.hpp: rigid objects beside the
+/// character, for tasks such as strike).
 #include <maskadapt/core/error.hpp>
 #include <maskadapt/core/types.hpp>
 #include <maskadapt/motion/skeleton.hpp>
