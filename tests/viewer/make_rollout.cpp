@@ -4,15 +4,19 @@
 // feet's height, text commands and wrist goal trajectories.
 //
 //   maskadapt_viewer_make_rollout OUT_DIR [SECONDS]
-// writes OUT_DIR/rollout_a.json (legs adapted, then arms) and OUT_DIR/rollout_b.json (the same
-// walk with a different arm motion and no masks: the "other" side of a side-by-side comparison).
+// writes OUT_DIR/rollout_a.json (legs adapted, then arms), OUT_DIR/rollout_b.json (the same
+// walk with a different arm motion and no masks: the "other" side of a side-by-side comparison)
+// and OUT_DIR/rollout_goals.json (rollout A with a goal-task scene: location target, heading
+// arrow, strike box).
 #include <maskadapt/eval/rollout_file.hpp>
 #include <maskadapt/humanoid/description.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdlib>
 #include <iostream>
 #include <numbers>
+#include <stdexcept>
 
 using namespace maskadapt;
 
@@ -79,6 +83,32 @@ eval::Rollout make(double seconds, int variant) {
   return r;
 }
 
+// The walk of variant 0 with a goal-task scene (what play-residual writes for the location,
+// heading and strike tasks): a location target (radius 0.5 m) ahead on the floor that jumps
+// further on halfway, a heading arrow from the root (target speed 1 m/s, direction turning
+// slowly) and the strike box (0.4 × 0.4 × 1.2 m) beside the path, tipping over after 2 s.
+eval::Rollout make_goal_scene(double seconds) {
+  eval::Rollout r = make(seconds, 0);
+  r.metadata.command = "maskadapt_viewer_make_rollout (kinematic test animation with a goal-task scene)";
+  eval::RolloutScene sc;
+  eval::RolloutObject box{"strike_box", Vec3(0.2, 0.2, 0.6), {}, {}};
+  for (int f = 0; f < r.num_frames(); ++f) {
+    const double t = f / r.fps;
+    const Vec3 root = r.positions[static_cast<std::size_t>(f)].col(0);
+    sc.targets.push_back({{Vec3(f < r.num_frames() / 2 ? 2.0 : 4.5, -0.8, 0.0), 0.5}});
+    sc.arrows.push_back({eval::heading_arrow(root, Vec3(std::cos(0.2 * t), std::sin(0.2 * t), 0.0), 1.0)});
+    const double tilt = std::clamp((t - 2.0) * 1.5, 0.0, std::numbers::pi / 2);  // falls over in ~1 s
+    // Tipping away from the path about its bottom edge at y = 1.4 (the box stands centred at
+    // y = 1.2, 0.6 m high; a rotation about −x tilts its top towards +y).
+    const Quat q(Eigen::AngleAxisd(-tilt, Vec3::UnitX()));
+    box.positions.push_back(Vec3(2.5, 1.4, 0.0) + q * Vec3(0.0, -0.2, 0.6));
+    box.rotations.push_back(q);
+  }
+  sc.objects.push_back(box);
+  r.scene = sc;
+  return r;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -91,9 +121,13 @@ int main(int argc, char** argv) {
   try {
     eval::write_rollout(make(seconds, 0), dir + "/rollout_a.json");
     eval::write_rollout(make(seconds, 1), dir + "/rollout_b.json");
+    eval::write_rollout(make_goal_scene(seconds), dir + "/rollout_goals.json");
+    const eval::Rollout goals = eval::read_rollout(dir + "/rollout_goals.json");
+    if (!goals.scene || goals.scene->objects.size() != 1 || static_cast<int>(goals.scene->targets.size()) != goals.num_frames())
+      throw std::runtime_error("rollout_goals.json: scene did not survive the round trip");
     // Read back with the library's reader: what the viewer gets is what the library accepts.
     const eval::Rollout back = eval::read_rollout(dir + "/rollout_a.json");
-    std::cout << "wrote " << dir << "/rollout_a.json and rollout_b.json (" << back.num_frames() << " frames, "
+    std::cout << "wrote " << dir << "/rollout_a.json, rollout_b.json and rollout_goals.json (" << back.num_frames() << " frames, "
               << back.skeleton.num_bodies() << " bodies)\n";
   } catch (const std::exception& e) {
     std::cerr << "error: " << e.what() << "\n";

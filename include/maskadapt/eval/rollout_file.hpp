@@ -4,7 +4,8 @@
 ///
 /// A `Rollout` holds the skeleton (names, parents, parts, rest offsets, drawable geoms), and per
 /// frame the world position and orientation of every body, the active part mask, ground-contact
-/// flags, plus optional text commands over time and goal trajectories (tracking). It is written
+/// flags, plus optional text commands over time, goal trajectories (tracking) and scene goals
+/// (goal tasks: location targets, heading arrows, rigid boxes such as the strike box). It is written
 /// as one JSON document, schema "maskadapt-rollout" version 1, documented field by field in
 /// docs/viewer.md. Typical use:
 ///
@@ -12,6 +13,18 @@
 ///   r.metadata.command = "maskadapt play ...";
 ///   for (...) eval::add_frame(r, sim.body_states(0), mask, sim.contacts(0));
 ///   eval::write_rollout(r, "out/rollout.json");
+///
+/// Goal tasks add a scene (one entry per frame, pushed next to add_frame):
+///
+///   r.scene.emplace();
+///   r.scene->objects.push_back({"strike_box", Vec3(0.2, 0.2, 0.6), {}, {}});
+///   for (...) {
+///     eval::add_frame(r, ...);
+///     r.scene->targets.push_back({{target_pos, 0.5}});                       // location
+///     r.scene->arrows.push_back({eval::heading_arrow(root_pos, dir, speed)});  // heading
+///     r.scene->objects[0].positions.push_back(box.pos);                      // strike
+///     r.scene->objects[0].rotations.push_back(box.rot);
+///   }
 ///
 /// Every writer input is validated: non-finite positions/rotations raise maskadapt::Error naming
 /// the frame and the body; the reader reports the file and the JSON field at fault.
@@ -70,6 +83,49 @@ struct RolloutGoals {
   std::vector<Matrix3X> targets;   ///< (num_frames) each (3 × k) world targets (m), or 3 × 0 = no goal that frame
 };
 
+/// A location target (goal task "location"): a point the character should reach, drawn as a flat
+/// disc/ring of `radius` on the floor below `position`.
+struct RolloutTarget {
+  Vec3 position = Vec3::Zero();  ///< world position (m); usually on the floor (z = 0)
+  double radius = 0.5;           ///< reach radius (m), > 0
+};
+
+/// A heading arrow (goal task "heading"): the target direction on the ground and target speed,
+/// drawn from `origin` (the root projected on the floor) with a length of `speed` metres (the
+/// distance covered in 1 s at that speed).
+struct RolloutArrow {
+  Vec3 origin = Vec3::Zero();        ///< world position (m) the arrow starts at
+  Vec3 direction = Vec3::UnitX();    ///< horizontal unit vector (world; z = 0)
+  double speed = 0.0;                ///< target speed (m/s), ≥ 0
+};
+
+/// A rigid box in the scene (goal task "strike": the 0.4 × 0.4 × 1.2 m box), with its world pose
+/// at every frame.
+struct RolloutObject {
+  std::string name;                    ///< e.g. "strike_box" (shown by the viewer)
+  Vec3 half_size = Vec3::Constant(0.1);  ///< box half sizes along its local x, y, z (m), each > 0
+  std::vector<Vec3> positions;         ///< (num_frames) world position of the box centre (m)
+  std::vector<Quat> rotations;         ///< (num_frames) world orientation, unit quaternions
+};
+
+/// Scene goals of the goal-driven tasks, drawn by the viewer. Every per-frame vector is either
+/// empty (that kind of goal is absent from the whole rollout) or has one entry per frame, which
+/// may itself be empty (no target / arrow on that frame).
+struct RolloutScene {
+  std::vector<RolloutObject> objects;                ///< rigid boxes (each with num_frames poses)
+  std::vector<std::vector<RolloutTarget>> targets;   ///< (num_frames or 0) location targets per frame
+  std::vector<std::vector<RolloutArrow>> arrows;     ///< (num_frames or 0) heading arrows per frame
+};
+
+/// The heading arrow of a root at `root_pos` (world, m): starts at the root projected on the floor,
+/// points along `dir` projected on the ground and normalised (throws when it is vertical or not
+/// finite), with length `speed` (m/s).
+inline RolloutArrow heading_arrow(const Vec3& root_pos, const Vec3& dir, double speed) {
+  const Vec3 d(dir.x(), dir.y(), 0.0);
+  require(d.allFinite() && d.norm() > 1e-9, "heading direction must be finite and not vertical", {{}, {}, "scene.arrows.direction"});
+  return {Vec3(root_pos.x(), root_pos.y(), 0.0), d.normalized(), speed};
+}
+
 struct RolloutMetadata {
   std::string command;                       ///< command line that produced the rollout
   std::string checkpoint;                    ///< checkpoint path, if any
@@ -86,6 +142,7 @@ struct Rollout {
   std::vector<std::vector<std::uint8_t>> contacts;    ///< (num_frames) each (num_bodies) 0/1, or empty = unknown
   std::vector<RolloutText> texts;                     ///< sorted by t
   std::optional<RolloutGoals> goals;
+  std::optional<RolloutScene> scene;                  ///< goal-task scene (targets, arrows, boxes), if any
   RolloutMetadata metadata;
 
   int num_frames() const { return static_cast<int>(positions.size()); }
@@ -190,6 +247,64 @@ void add_frame(Rollout& r, const BodyStates& states, PartMask mask, const Contac
   r.contacts.push_back(std::move(c));
 }
 
+namespace detail {
+/// Tolerance on the norm of unit vectors and quaternions (files store 6 decimals).
+inline constexpr double kUnitTolerance = 1e-3;
+
+/// Checks the scene goals against `nf` frames; fields are named as in the JSON document
+/// ("scene.targets[3][0].radius"), messages name the frame.
+inline void validate_scene(const RolloutScene& sc, int nf) {
+  const auto fr = [](std::size_t f) { return "frame " + std::to_string(f) + ": "; };
+  const auto ix = [](std::size_t i) { return "[" + std::to_string(i) + "]"; };
+  const auto unf = static_cast<std::size_t>(nf);
+  for (std::size_t i = 0; i < sc.objects.size(); ++i) {
+    const auto& o = sc.objects[i];
+    const std::string f = "scene.objects" + ix(i);
+    const std::string label = "object " + std::to_string(i) + " ('" + o.name + "')";
+    require(o.half_size.allFinite() && (o.half_size.array() > 0.0).all(),
+            label + ": half sizes must be positive and finite", {{}, {}, f + ".half_size"});
+    require(o.positions.size() == unf, label + ": " + std::to_string(o.positions.size()) + " positions for " +
+                                           std::to_string(nf) + " frames", {{}, {}, f + ".positions"});
+    require(o.rotations.size() == unf, label + ": " + std::to_string(o.rotations.size()) + " rotations for " +
+                                           std::to_string(nf) + " frames", {{}, {}, f + ".rotations"});
+    for (std::size_t t = 0; t < unf; ++t) {
+      require(o.positions[t].allFinite(), fr(t) + label + ": non-finite position", {{}, {}, f + ".positions" + ix(t)});
+      const auto& q = o.rotations[t];
+      require(q.coeffs().allFinite() && std::abs(q.coeffs().norm() - 1.0) <= kUnitTolerance,
+              fr(t) + label + ": rotation is not a unit quaternion (norm " + std::to_string(q.coeffs().norm()) + ")",
+              {{}, {}, f + ".rotations" + ix(t)});
+    }
+  }
+  require(sc.targets.empty() || sc.targets.size() == unf,
+          "scene targets: " + std::to_string(sc.targets.size()) + " entries for " + std::to_string(nf) +
+              " frames (need one per frame, or none)", {{}, {}, "scene.targets"});
+  for (std::size_t t = 0; t < sc.targets.size(); ++t)
+    for (std::size_t k = 0; k < sc.targets[t].size(); ++k) {
+      const auto& g = sc.targets[t][k];
+      const std::string f = "scene.targets" + ix(t) + ix(k);
+      require(g.position.allFinite(), fr(t) + "target " + std::to_string(k) + ": non-finite position", {{}, {}, f + ".position"});
+      require(std::isfinite(g.radius) && g.radius > 0.0,
+              fr(t) + "target " + std::to_string(k) + ": radius must be positive and finite, got " + std::to_string(g.radius),
+              {{}, {}, f + ".radius"});
+    }
+  require(sc.arrows.empty() || sc.arrows.size() == unf,
+          "scene arrows: " + std::to_string(sc.arrows.size()) + " entries for " + std::to_string(nf) +
+              " frames (need one per frame, or none)", {{}, {}, "scene.arrows"});
+  for (std::size_t t = 0; t < sc.arrows.size(); ++t)
+    for (std::size_t k = 0; k < sc.arrows[t].size(); ++k) {
+      const auto& a = sc.arrows[t][k];
+      const std::string f = "scene.arrows" + ix(t) + ix(k);
+      const std::string label = fr(t) + "arrow " + std::to_string(k) + ": ";
+      require(a.origin.allFinite(), label + "non-finite origin", {{}, {}, f + ".origin"});
+      require(a.direction.allFinite() && std::abs(a.direction.norm() - 1.0) <= kUnitTolerance &&
+                  std::abs(a.direction.z()) <= kUnitTolerance,
+              label + "direction must be a horizontal unit vector", {{}, {}, f + ".direction"});
+      require(std::isfinite(a.speed) && a.speed >= 0.0, label + "speed must be >= 0 and finite, got " + std::to_string(a.speed),
+              {{}, {}, f + ".speed"});
+    }
+}
+}  // namespace detail
+
 /// Checks sizes and values of a whole rollout; throws the first problem (naming frame/body/field).
 inline void validate(const Rollout& r) {
   const auto& s = r.skeleton;
@@ -232,6 +347,7 @@ inline void validate(const Rollout& r) {
       require(t.allFinite(), "frame " + std::to_string(f) + ": non-finite goal target", {{}, {}, "goals.targets"});
     }
   }
+  if (r.scene) detail::validate_scene(*r.scene, nf);
 }
 
 // ---- JSON -------------------------------------------------------------------------------------
@@ -337,6 +453,47 @@ inline nlohmann::json to_json(const Rollout& r, int decimals = 5) {
     j["goals"] = {{"bodies", r.goals->bodies}, {"targets", targets}};
   } else {
     j["goals"] = nullptr;
+  }
+  if (r.scene) {
+    const auto& sc = *r.scene;
+    const auto quat_json = [qs](const Quat& q0) {
+      Quat q = q0.normalized();
+      if (q.w() < 0) q.coeffs() = -q.coeffs();  // canonical hemisphere: w ≥ 0
+      return json::array({detail::rounded(q.x(), qs), detail::rounded(q.y(), qs), detail::rounded(q.z(), qs),
+                          detail::rounded(q.w(), qs)});
+    };
+    json objects = json::array();
+    for (const auto& o : sc.objects) {
+      json pj = json::array(), qj = json::array();
+      for (const auto& p : o.positions) pj.push_back(detail::vec3_json(p, ps));
+      for (const auto& q : o.rotations) qj.push_back(quat_json(q));
+      objects.push_back({{"name", o.name}, {"type", "box"}, {"half_size", detail::vec3_json(o.half_size, ps)},
+                         {"positions", std::move(pj)}, {"rotations", std::move(qj)}});
+    }
+    json targets = nullptr, arrows = nullptr;
+    if (!sc.targets.empty()) {
+      targets = json::array();
+      for (const auto& frame : sc.targets) {
+        json row = json::array();
+        for (const auto& t : frame)
+          row.push_back({{"position", detail::vec3_json(t.position, ps)}, {"radius", detail::rounded(t.radius, ps)}});
+        targets.push_back(std::move(row));
+      }
+    }
+    if (!sc.arrows.empty()) {
+      arrows = json::array();
+      for (const auto& frame : sc.arrows) {
+        json row = json::array();
+        for (const auto& a : frame)
+          row.push_back({{"origin", detail::vec3_json(a.origin, ps)},
+                         {"direction", detail::vec3_json(a.direction, qs)},
+                         {"speed", detail::rounded(a.speed, ps)}});
+        arrows.push_back(std::move(row));
+      }
+    }
+    j["scene"] = {{"objects", std::move(objects)}, {"targets", std::move(targets)}, {"arrows", std::move(arrows)}};
+  } else {
+    j["scene"] = nullptr;
   }
   return j;
 }
@@ -495,6 +652,66 @@ inline Rollout rollout_from_json(const nlohmann::json& j, const std::string& fil
       g.targets.push_back(std::move(t));
     }
     r.goals = std::move(g);
+  }
+  if (auto it = j.find("scene"); it != j.end() && !it->is_null()) {
+    if (!it->is_object()) rd.fail("scene", "expected an object or null, got " + std::string(it->type_name()));
+    RolloutScene sc;
+    const auto ix = [](std::size_t i) { return "[" + std::to_string(i) + "]"; };
+    if (auto o = it->find("objects"); o != it->end() && !o->is_null()) {
+      rd.array(*o, "scene.objects");
+      for (std::size_t i = 0; i < o->size(); ++i) {
+        const std::string f = "scene.objects" + ix(i);
+        const auto& oj = (*o)[i];
+        RolloutObject ob;
+        ob.name = rd.string(rd.at(oj, "name", f), f + ".name");
+        if (auto ty = oj.find("type"); ty != oj.end() && rd.string(*ty, f + ".type") != "box")
+          rd.fail(f + ".type", "unknown object type '" + ty->get<std::string>() + "' (box)");
+        ob.half_size = rd.vec3(rd.at(oj, "half_size", f), f + ".half_size");
+        const auto& pj = rd.array(rd.at(oj, "positions", f), f + ".positions", nf);
+        const auto& qj = rd.array(rd.at(oj, "rotations", f), f + ".rotations", nf);
+        for (std::size_t t = 0; t < nf; ++t) {
+          ob.positions.push_back(rd.vec3(pj[t], f + ".positions" + ix(t)));
+          const std::string qf = f + ".rotations" + ix(t);
+          const auto& q = rd.array(qj[t], qf, 4);
+          Quat qq;
+          for (std::size_t k = 0; k < 4; ++k) qq.coeffs()[static_cast<Index>(k)] = rd.number(q[k], qf + ix(k));
+          ob.rotations.push_back(qq);
+        }
+        sc.objects.push_back(std::move(ob));
+      }
+    }
+    if (auto tg = it->find("targets"); tg != it->end() && !tg->is_null()) {
+      rd.array(*tg, "scene.targets", nf);
+      for (std::size_t t = 0; t < nf; ++t) {
+        std::vector<RolloutTarget> row;
+        if (!(*tg)[t].is_null()) {
+          const std::string f = "scene.targets" + ix(t);
+          const auto& rj = rd.array((*tg)[t], f);
+          for (std::size_t k = 0; k < rj.size(); ++k) {
+            const std::string e = f + ix(k);
+            row.push_back({rd.vec3(rd.at(rj[k], "position", e), e + ".position"), rd.number(rd.at(rj[k], "radius", e), e + ".radius")});
+          }
+        }
+        sc.targets.push_back(std::move(row));
+      }
+    }
+    if (auto ar = it->find("arrows"); ar != it->end() && !ar->is_null()) {
+      rd.array(*ar, "scene.arrows", nf);
+      for (std::size_t t = 0; t < nf; ++t) {
+        std::vector<RolloutArrow> row;
+        if (!(*ar)[t].is_null()) {
+          const std::string f = "scene.arrows" + ix(t);
+          const auto& rj = rd.array((*ar)[t], f);
+          for (std::size_t k = 0; k < rj.size(); ++k) {
+            const std::string e = f + ix(k);
+            row.push_back({rd.vec3(rd.at(rj[k], "origin", e), e + ".origin"), rd.vec3(rd.at(rj[k], "direction", e), e + ".direction"),
+                           rd.number(rd.at(rj[k], "speed", e), e + ".speed")});
+          }
+        }
+        sc.arrows.push_back(std::move(row));
+      }
+    }
+    r.scene = std::move(sc);
   }
   if (auto it = j.find("metadata"); it != j.end() && it->is_object()) {
     for (auto m = it->begin(); m != it->end(); ++m) {

@@ -1,12 +1,13 @@
 // End-to-end test of the viewer in headless Chromium (Debian's /usr/bin/chromium, driven by
 // playwright-core; no browser download).
 //
-//   node e2e/run-e2e.mjs --rollout-a A.json [--rollout-b B.json] [--out DIR]
+//   node e2e/run-e2e.mjs --rollout-a A.json [--rollout-b B.json] [--rollout-goals G.json] [--out DIR]
 //
 // Builds the viewer into DIR/dist (vite), serves it on 127.0.0.1, loads rollout A through the
 // file picker, checks that frames advance while playing and that the masked (adapted) body parts
 // carry their part colour (via the window.__viewerState hook and in the rendered pixels), loads B
-// side by side, opens two training logs, and saves screenshots into DIR.
+// side by side, loads G (a rollout with a goal-task scene) and checks its target, arrow and box,
+// opens two training logs, and saves screenshots into DIR.
 // Exit codes: 0 pass, 1 fail, 77 skipped (no Chromium / node_modules) — ctest SKIP_RETURN_CODE.
 import { spawnSync } from 'node:child_process';
 import fs from 'node:fs';
@@ -36,7 +37,7 @@ const args = Object.fromEntries(
   process.argv.slice(2).reduce((acc, a, i, all) => (a.startsWith('--') ? [...acc, [a.slice(2), all[i + 1]]] : acc), []),
 );
 if (!args['rollout-a']) {
-  console.error('usage: node e2e/run-e2e.mjs --rollout-a A.json [--rollout-b B.json] [--out DIR]');
+  console.error('usage: node e2e/run-e2e.mjs --rollout-a A.json [--rollout-b B.json] [--rollout-goals G.json] [--out DIR]');
   process.exit(2);
 }
 const outDir = path.resolve(args.out || path.join(root, 'test-results'));
@@ -46,7 +47,7 @@ if (!fs.existsSync(CHROMIUM)) skip(`Chromium not found at ${CHROMIUM} (install D
 if (!fs.existsSync(path.join(root, 'node_modules', 'playwright-core')) || !fs.existsSync(path.join(root, 'node_modules', 'vite')))
   skip(`node_modules missing in ${root} (run scripts/setup-viewer.sh)`);
 
-const { BASE_COLOR, PART_COLORS } = await import('../src/colors.js');
+const { ARROW_COLOR, BASE_COLOR, PART_COLORS, TARGET_COLOR } = await import('../src/colors.js');
 const { PART_NAMES } = await import('../src/rollout.js');
 
 // ---- build the current sources into outDir/dist ------------------------------------------------
@@ -164,6 +165,32 @@ try {
     await page.screenshot({ path: path.join(outDir, 'viewer-side-by-side.png') });
   }
 
+  // Goal-task scene: the rollout with a location target, a heading arrow and the strike box, in A.
+  if (args['rollout-goals']) {
+    const name = path.basename(args['rollout-goals']);
+    await page.setInputFiles('#file-a', path.resolve(args['rollout-goals']));
+    await page.waitForFunction((n) => window.__viewerState.views[0]?.name === n, name, { timeout: 10000 });
+    check(!(await page.textContent('#status')), 'goal-scene rollout loaded without error');
+    s = await scrubTo(30);
+    let sc = s.views[0].scene;
+    check(sc.targets.length === 1 && sc.arrows.length === 1 && sc.objects.length === 1,
+      `frame 30: ${sc.targets.length} target, ${sc.arrows.length} arrow, ${sc.objects.length} box drawn`);
+    check(Math.abs(sc.targets[0].radius - 0.5) < 1e-6 && Math.abs(sc.targets[0].position[0] - 2) < 1e-6,
+      `target ring of radius ${sc.targets[0].radius} m at (${sc.targets[0].position.map((x) => x.toFixed(2)).join(', ')})`);
+    await page.waitForTimeout(200);
+    const targetShare = await pixelShare(TARGET_COLOR);
+    const arrowShare = await pixelShare(ARROW_COLOR);
+    check(targetShare > 0.0002 && arrowShare > 0.00002,
+      `rendered pixels show the target (${(100 * targetShare).toFixed(3)}%) and the arrow (${(100 * arrowShare).toFixed(3)}%)`);
+    await page.screenshot({ path: path.join(outDir, 'viewer-goal-scene.png') });
+    const upright = sc.objects[0].quaternion;
+    s = await scrubTo(nf - 1);
+    sc = s.views[0].scene;
+    const q = sc.objects[0].quaternion;  // x, y, z, w: 90° about x once it has fallen
+    check(Math.abs(upright[3] - 1) < 1e-6 && Math.abs(Math.abs(q[0]) - Math.SQRT1_2) < 1e-3,
+      `the box follows its per-frame pose (upright at frame 30, on its side at frame ${nf - 1})`);
+    await page.screenshot({ path: path.join(outDir, 'viewer-goal-scene-end.png') });
+  }
   // Training logs: two runs overlaid.
   const logA = path.join(outDir, 'log_mi.jsonl');
   const logB = path.join(outDir, 'log_no_mi.jsonl');

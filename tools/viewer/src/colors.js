@@ -7,6 +7,11 @@ export const BASE_COLOR = '#b8c0cc';
 export const PART_COLORS = ['#e6a23c', '#e4572e', '#f28e2b', '#2e86de', '#17a2b8'];
 /** Colour of the goal markers (tracking targets). */
 export const GOAL_COLOR = '#34c759';
+/** Colours of the goal-task scene: location targets (disc + ring on the floor), heading arrows,
+ * rigid boxes (the strike box). Hues away from the part colours (the e2e test measures those). */
+export const TARGET_COLOR = '#d63384';
+export const ARROW_COLOR = '#7048e8';
+export const OBJECT_COLOR = '#8a9a5b';
 
 /** Whether part p (0..4) is set in the 5-bit mask. */
 export function isPartMasked(mask, partIndex) {

@@ -163,6 +163,7 @@ function showTime(t) {
       bodyParts: slot.rollout.bodies.map((b) => b.part),
       bodyColors: slot.view.colors.slice(),
       meshColors: slot.view.materials.map((m) => `#${m.color.getHexString()}`),
+      scene: slot.view.sceneGoals.state(),
     });
   }
   const first = views[0];

@@ -67,13 +67,78 @@ function parseGeom(g, field) {
   };
 }
 
+/** Tolerance on the norm of unit vectors and quaternions (files store 6 decimals). */
+export const UNIT_TOLERANCE = 1e-3;
+
+function isNullish(v) {
+  return v === null || v === undefined;
+}
+
+/**
+ * Parses the optional `scene` (goal tasks: location targets, heading arrows, rigid boxes) of a
+ * document with nf frames. Returns null when absent, else
+ * { objects: [{name, halfSize: [hx, hy, hz], positions: Float32Array(nf·3), rotations: Float32Array(nf·4)}],
+ *   targets: null | Array(nf) of [{position: [x, y, z], radius}],
+ *   arrows: null | Array(nf) of [{origin: [x, y, z], direction: [dx, dy, dz], speed}] }.
+ */
+function parseScene(sc, nf) {
+  if (isNullish(sc)) return null;
+  if (typeof sc !== 'object' || Array.isArray(sc)) fail('scene', 'expected an object or null');
+  const objects = isNullish(sc.objects)
+    ? []
+    : array(sc.objects, 'scene.objects').map((o, i) => {
+        const f = `scene.objects[${i}]`;
+        const name = need(o, 'name', f);
+        if (typeof name !== 'string') fail(`${f}.name`, 'expected a string');
+        if ('type' in o && o.type !== 'box') fail(`${f}.type`, `unknown object type '${o.type}' (box)`);
+        const halfSize = vec3(need(o, 'half_size', f), `${f}.half_size`);
+        if (!halfSize.every((h) => h > 0)) fail(`${f}.half_size`, `half sizes must be positive, got ${JSON.stringify(halfSize)}`);
+        const pj = array(need(o, 'positions', f), `${f}.positions`, nf);
+        const qj = array(need(o, 'rotations', f), `${f}.rotations`, nf);
+        const positions = new Float32Array(nf * 3);
+        const rotations = new Float32Array(nf * 4);
+        for (let t = 0; t < nf; ++t) {
+          positions.set(vec3(pj[t], `${f}.positions[${t}]`), 3 * t);
+          const q = array(qj[t], `${f}.rotations[${t}]`, 4).map((x, k) => finiteNumber(x, `${f}.rotations[${t}][${k}]`));
+          const norm = Math.hypot(...q);
+          if (Math.abs(norm - 1) > UNIT_TOLERANCE)
+            fail(`${f}.rotations[${t}]`, `frame ${t}: rotation is not a unit quaternion (norm ${norm.toFixed(6)})`);
+          rotations.set(q, 4 * t);
+        }
+        return { name, halfSize, positions, rotations };
+      });
+  const perFrame = (key, parseEntry) => {
+    if (isNullish(sc[key])) return null;
+    return array(sc[key], `scene.${key}`, nf).map((row, t) =>
+      isNullish(row) ? [] : array(row, `scene.${key}[${t}]`).map((e, k) => parseEntry(e, `scene.${key}[${t}][${k}]`, t)),
+    );
+  };
+  const targets = perFrame('targets', (e, f, t) => {
+    const position = vec3(need(e, 'position', f), `${f}.position`);
+    const radius = finiteNumber(need(e, 'radius', f), `${f}.radius`);
+    if (radius <= 0) fail(`${f}.radius`, `frame ${t}: radius must be positive, got ${radius}`);
+    return { position, radius };
+  });
+  const arrows = perFrame('arrows', (e, f, t) => {
+    const origin = vec3(need(e, 'origin', f), `${f}.origin`);
+    const direction = vec3(need(e, 'direction', f), `${f}.direction`);
+    if (Math.abs(Math.hypot(...direction) - 1) > UNIT_TOLERANCE || Math.abs(direction[2]) > UNIT_TOLERANCE)
+      fail(`${f}.direction`, `frame ${t}: direction must be a horizontal unit vector, got ${JSON.stringify(direction)}`);
+    const speed = finiteNumber(need(e, 'speed', f), `${f}.speed`);
+    if (speed < 0) fail(`${f}.speed`, `frame ${t}: speed must be >= 0, got ${speed}`);
+    return { origin, direction, speed };
+  });
+  return { objects, targets, arrows };
+}
+
 /**
  * Parses a rollout document (a JSON string or an already parsed object).
  * Returns { fps, numFrames, numBodies, bodies: [{name, parent, part, partIndex, offset, geoms}],
  *   positions: Float32Array (numFrames·numBodies·3, world metres, z-up),
  *   rotations: Float32Array (numFrames·numBodies·4, quaternion x, y, z, w),
  *   masks: Uint8Array (numFrames, bit p ⇔ part p adapted), contacts: Array<Uint8Array|null>,
- *   texts: [{t, text}] sorted, goals: {bodies, targets: Array<Float32Array|null>} | null, metadata }.
+ *   texts: [{t, text}] sorted, goals: {bodies, targets: Array<Float32Array|null>} | null,
+ *   scene: {objects, targets, arrows} | null (see parseScene; null when the file has none), metadata }.
  * Throws RolloutError naming the field at fault.
  */
 export function parseRollout(input) {
@@ -158,6 +223,7 @@ export function parseRollout(input) {
     });
     goals = { bodies: gb.slice(), targets };
   }
+  const scene = parseScene(doc.scene, nf);
 
   return {
     fps,
@@ -171,6 +237,7 @@ export function parseRollout(input) {
     contacts,
     texts,
     goals,
+    scene,
     metadata: doc.metadata && typeof doc.metadata === 'object' ? doc.metadata : {},
   };
 }
@@ -202,4 +269,24 @@ export function textAt(rollout, t) {
     else break;
   }
   return current;
+}
+
+/**
+ * The scene goals shown at frame f: { targets: [{position, radius}], arrows: [{origin, direction,
+ * speed}], objects: [{name, halfSize, position: [x, y, z], rotation: [x, y, z, w]}] } (empty
+ * arrays when the rollout has no scene).
+ */
+export function sceneAt(rollout, f) {
+  const sc = rollout.scene;
+  if (!sc) return { targets: [], arrows: [], objects: [] };
+  return {
+    targets: sc.targets ? sc.targets[f] : [],
+    arrows: sc.arrows ? sc.arrows[f] : [],
+    objects: sc.objects.map((o) => ({
+      name: o.name,
+      halfSize: o.halfSize,
+      position: Array.from(o.positions.subarray(3 * f, 3 * f + 3)),
+      rotation: Array.from(o.rotations.subarray(4 * f, 4 * f + 4)),
+    })),
+  };
 }

@@ -1,9 +1,11 @@
-// One 3-D view of a rollout: the humanoid as capsules/spheres/boxes per body, a ground grid,
-// orbit controls and a camera that follows the root. World is z-up (as in maskadapt).
+// One 3-D view of a rollout: the humanoid as capsules/spheres/boxes per body, tracking goals, the
+// goal-task scene (targets, heading arrows, boxes: sceneGoals.js), a ground grid, orbit controls
+// and a camera that follows the root. World is z-up (as in maskadapt).
 import * as THREE from 'three';
 import { OrbitControls } from 'three/addons/controls/OrbitControls.js';
 import { bodyPosition, bodyRotation } from './rollout.js';
 import { bodyColors, GOAL_COLOR } from './colors.js';
+import { SceneGoals } from './sceneGoals.js';
 
 const UP = new THREE.Vector3(0, 0, 1);
 const Y = new THREE.Vector3(0, 1, 0);
@@ -135,6 +137,10 @@ export class RolloutView {
         return line;
       });
     }
+    // Goal-task scene (location targets, heading arrows, boxes); empty when the file has none.
+    if (this.sceneGoals) this.sceneGoals.dispose();
+    this.sceneGoals = new SceneGoals(rollout);
+    this.goalGroup.add(this.sceneGoals.group);
     this.lastRoot = null;
     this.setFrame(0, true);
   }
@@ -153,6 +159,7 @@ export class RolloutView {
     this.colors = bodyColors(r, f);
     this.colors.forEach((c, b) => this.materials[b].color.set(c));
     this.updateGoals(f);
+    this.sceneGoals.update(f);
 
     const root = new THREE.Vector3(...bodyPosition(r, f, 0));
     if (snapCamera || !this.lastRoot) {

@@ -29,3 +29,33 @@ export function tinyRollout() {
     goals: { bodies: [1], targets: [[0, 0.3, 1.5], [0.1, 0.3, 1.5], null, [0.3, 0.3, 1.5]] },
   };
 }
+
+// tinyRollout() plus a goal-task scene: a strike box tipping over about x (90° by frame 3), a
+// location target that moves at frame 2 (none on frame 3), and a heading arrow from the root
+// (none on frame 0; speed 0 on frame 3).
+export function sceneRollout() {
+  const doc = tinyRollout();
+  const s = Math.SQRT1_2;
+  doc.scene = {
+    objects: [
+      {
+        name: 'strike_box', type: 'box', half_size: [0.2, 0.2, 0.6],
+        positions: [[2, 0.5, 0.6], [2, 0.5, 0.6], [2.1, 0.5, 0.45], [2.3, 0.5, 0.2]],
+        rotations: [[0, 0, 0, 1], [0, 0, 0, 1], [0.382683, 0, 0, 0.92388], [s, 0, 0, s]],
+      },
+    ],
+    targets: [
+      [{ position: [3, 1.25, 0], radius: 0.5 }],
+      [{ position: [3, 1.25, 0], radius: 0.5 }],
+      [{ position: [-1, 2, 0], radius: 0.75 }],
+      [],
+    ],
+    arrows: [
+      [],
+      [{ origin: [0.1, 0, 0], direction: [0.6, 0.8, 0], speed: 1.25 }],
+      [{ origin: [0.2, 0, 0], direction: [0, 1, 0], speed: 1.5 }],
+      [{ origin: [0.3, 0, 0], direction: [-1, 0, 0], speed: 0 }],
+    ],
+  };
+  return doc;
+}
