@@ -18,6 +18,7 @@
 #include <maskadapt/tasks/goal_task.hpp>
 #include <maskadapt/tasks/imitation.hpp>
 #include <maskadapt/train/residual_eval.hpp>
+#include <maskadapt/train/stage2_policy.hpp>
 
 #include <optional>
 #include <string>
@@ -42,8 +43,8 @@ struct GoalEvalResult {
 };
 
 /// See the file comment. `goal` is copied: the caller's task is left as it was.
-template <Simulator Sim>
-GoalEvalResult evaluate_goal_task(Sim& sim, const adapt::ResidualPolicy<float>& policy, tasks::AnyGoalTask<Sim> goal,
+template <Simulator Sim, class Policy>
+GoalEvalResult evaluate_goal_task(Sim& sim, const Policy& policy, tasks::AnyGoalTask<Sim> goal,
                                   PartMask mask, tasks::ResetSampler reset, std::optional<FallCriteria> fall,
                                   const GoalEvalOptions& opt, ThreadPool* pool = nullptr) {
   require(static_cast<bool>(goal), "no goal task to evaluate", {{}, {}, "task"});
@@ -61,7 +62,7 @@ GoalEvalResult evaluate_goal_task(Sim& sim, const adapt::ResidualPolicy<float>& 
   const std::vector<PartMask> masks(static_cast<std::size_t>(N), mask);
   MatrixXf goals(goal.goal_dim(), N), x, mu, actions;
   RowVectorX<float> logp;
-  adapt::ResidualWorkspace<float> ws;
+  typename Stage2Types<Policy>::Workspace ws;
   Rng rng = Rng::stream(opt.seed, 0x60A1ULL);
   task.stats().clear();
   GoalEvalResult r;

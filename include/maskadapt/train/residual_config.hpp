@@ -29,7 +29,7 @@ namespace maskadapt::train {
 struct ResidualTrainConfig {
   BaseTrainConfig rl;
   std::string task = "composition";   ///< composition | tracking | location | heading | strike
-  std::string method = "ours";        ///< ours | cml | scratch (no base: a zero base, every DoF residual)
+  std::string method = "ours";        ///< ours | cml | scratch (no base: a zero base, every DoF residual) | adaptnet (goal tasks)
   std::vector<std::string> new_motions;            ///< M_new (composition)
   std::vector<std::string> masks = {"lower_body"}; ///< training mask set (cml / tracking: the first = fixed region)
   double switch_rate = 0.0;           ///< mid-episode mask switches per second (ours)
@@ -52,7 +52,10 @@ struct ResidualTrainConfig {
     rl.validate("residual config");
     require(task == "composition" || task == "tracking" || task == "location" || task == "heading" || task == "strike",
             "expected composition, tracking, location, heading or strike", {{}, {}, "task"});
-    require(method == "ours" || method == "cml" || method == "scratch", "expected ours, cml or scratch", {{}, {}, "method"});
+    require(method == "ours" || method == "cml" || method == "scratch" || method == "adaptnet",
+            "expected ours, cml, scratch or adaptnet", {{}, {}, "method"});
+    require(method != "adaptnet" || task == "location" || task == "heading" || task == "strike",
+            "adaptnet adapts the base to a goal task (location, heading or strike), not to " + task, {{}, {}, "method"});
     require(!masks.empty(), "need at least one mask", {{}, {}, "masks"});
     require(switch_rate >= 0, "must be ≥ 0", {{}, {}, "switch_rate"});
     require(negative_fraction >= 0 && negative_fraction < 1, "must be in [0, 1)", {{}, {}, "negative_fraction"});

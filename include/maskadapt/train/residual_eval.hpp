@@ -70,8 +70,8 @@ struct CompositionResult {
 /// The imitation task an evaluation steps the policy in: RSI resets, falls and the episode limit,
 /// no masking of its own (the policy's masks are the evaluation's), and the policy's action space
 /// (the task sends offset + scale ⊙ â to the simulator).
-inline tasks::ImitationTaskConfig evaluation_task_config(const adapt::ResidualPolicy<float>& policy, std::optional<FallCriteria> fall,
-                                                         double episode_seconds) {
+template <class Policy>
+tasks::ImitationTaskConfig evaluation_task_config(const Policy& policy, std::optional<FallCriteria> fall, double episode_seconds) {
   tasks::ImitationTaskConfig tc;
   tc.fall = std::move(fall);
   tc.episode_seconds = episode_seconds;

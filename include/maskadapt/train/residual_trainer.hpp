@@ -66,6 +66,7 @@
 #include <maskadapt/train/progress.hpp>
 #include <maskadapt/train/residual_config.hpp>
 #include <maskadapt/train/reward_discriminators.hpp>
+#include <maskadapt/train/stage2_policy.hpp>
 #include <maskadapt/train/task_state.hpp>
 
 #include <nlohmann/json.hpp>
@@ -90,7 +91,7 @@ struct ResidualSetup {
   double goal_weight = 0.5;          ///< the goal task's objective weight
 };
 
-template <Simulator Sim>
+template <Simulator Sim, Stage2Policy Policy = adapt::ResidualPolicy<float>>
 class ResidualTrainer {
  public:
   /// A base with the identity action space (its actions are the PD targets).
@@ -110,10 +111,8 @@ class ResidualTrainer {
     const Index N = task_.num_envs();
     masks_ = tasks::EpisodeMasks(setup_.masks, N, setup_.switch_rate, task_.control_dt(), cfg_.rl.run.seed);
     Rng init = Rng::stream(cfg_.rl.run.seed, 0x2E51ULL);
-    adapt::ResidualConfig rc = residual_net_config(cfg_, sim.skeleton());
-    rc.goal_dim = setup_.goal.goal_dim();
-    policy_ = adapt::ResidualPolicy<float>(std::move(base.actor), task_.obs_dim(), action_parts(sim.skeleton()), rc, init,
-                                           std::move(base.actions));
+    const nn::Activation activation = residual_activation(cfg_.rl.net.activation);
+    policy_ = make_stage2_policy<Policy>(std::move(base), task_.obs_dim(), sim.skeleton(), cfg_, setup_.goal.goal_dim(), init);
     K_ = static_cast<Index>(setup_.discriminators.size()) + (setup_.goal ? 1 : 0);
     for (const auto& d : setup_.discriminators) weights_.push_back(d.weight);
     if (setup_.goal) weights_.push_back(setup_.goal_weight);
@@ -123,13 +122,13 @@ class ResidualTrainer {
     cc.action_dim = 1;
     cc.num_values = K_;
     cc.critic_hidden = cfg_.rl.net.critic_hidden;
-    cc.activation = rc.activation;
+    cc.activation = activation;
     critic_ = rl::Critic<float>(cc, init);
     popart_ = nn::PopArt<float>(K_, 1e-2);
     actor_opt_ = nn::Adam<float>({cfg_.rl.ppo.actor_lr, 0.9, 0.999, 1e-8, 0.0, false, cfg_.rl.ppo.max_grad_norm});
     critic_opt_ = nn::Adam<float>({cfg_.rl.ppo.critic_lr, 0.9, 0.999, 1e-8, 0.0, false, cfg_.rl.ppo.max_grad_norm});
     const Index W = task_.amp_dim();
-    discs_ = RewardDiscriminators(setup_.discriminators, W, cfg_.rl, rc.activation, setup_.negative_fraction, init);
+    discs_ = RewardDiscriminators(setup_.discriminators, W, cfg_.rl, activation, setup_.negative_fraction, init);
     rl::RolloutSpec spec;
     spec.horizon = cfg_.rl.ppo.horizon;
     spec.num_envs = N;
@@ -145,7 +144,7 @@ class ResidualTrainer {
 
   const BaseTrainConfig& config() const { return cfg_.rl; }
   const ResidualTrainConfig& residual_config() const { return cfg_; }
-  const adapt::ResidualPolicy<float>& policy() const { return policy_; }
+  const Policy& policy() const { return policy_; }
   /// The last iteration's rollout (actions: the composite â, base units).
   const rl::RolloutBuffer<float>& rollout() const { return buf_; }
   tasks::ImitationTask<Sim>& task() { return task_; }
@@ -425,7 +424,7 @@ class ResidualTrainer {
         const MatrixXf& mu = policy_.forward_train(x, ms, cache_);
         policy_.log_prob(cache_, act, lp_new);
         const auto sur = rl::clipped_surrogate<float>(lp_new, lp_old, a_mb, cfg_.rl.ppo.clip, dlogp);
-        adapt::ResidualPolicy<float>::log_prob_mean_grad(cache_, act, dlogp, dmu);
+        Policy::log_prob_mean_grad(cache_, act, dlogp, dmu);
         // action-bound penalty on the PD targets beyond ±π rad, as in stage 1 (target = offset +
         // scale ⊙ μ̂, so ∂/∂μ̂ carries a factor scale; the identity's target is μ̂ itself)
         const float bound = static_cast<float>(M_PI), wb = static_cast<float>(cfg_.rl.ppo.action_bound_weight);
@@ -473,7 +472,7 @@ class ResidualTrainer {
   PartElements part_elements_;
   Rng rng_;
   tasks::EpisodeMasks masks_;
-  adapt::ResidualPolicy<float> policy_;
+  Policy policy_;
   rl::Critic<float> critic_;
   nn::PopArt<float> popart_;
   RewardDiscriminators discs_;
@@ -486,8 +485,8 @@ class ResidualTrainer {
   long long goal_terminations_ = 0;
   RowVectorXf goal_rewards_;
   // workspaces
-  adapt::ResidualWorkspace<float> ws_;
-  adapt::ResidualTrainCache<float> cache_;
+  typename Stage2Types<Policy>::Workspace ws_;
+  typename Stage2Types<Policy>::Cache cache_;
   nn::InferenceWorkspace<float> critic_ws_;
   nn::TrainCache<float> critic_cache_;
   MatrixXf actions_, mu_, scratch_;
