@@ -4,17 +4,21 @@
 #
 #   scripts/setup.sh               # core packages + build
 #   scripts/setup.sh --with-torch  # also libtorch-dev (~800 MB) for the LibTorch benchmark peers
+#   scripts/setup.sh --with-mpi    # also libopenmpi-dev + openmpi-bin: `mpirun -np K maskadapt train-base`,
+#                                  # maskadapt::mpi and tests/mpi (docs/distributed.md)
 #   scripts/setup.sh --no-build    # packages only
 #   scripts/setup.sh --cli-only    # build only the `maskadapt` command (what quickstart.sh needs)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
 with_torch=0
+with_mpi=0
 build=1
 target=()
 for arg in "$@"; do
   case "$arg" in
     --with-torch) with_torch=1 ;;
+    --with-mpi) with_mpi=1 ;;
     --no-build) build=0 ;;
     --cli-only) target=(--target maskadapt_cli) ;;
     *) echo "setup.sh: unknown option '$arg'" >&2; exit 2 ;;
@@ -30,6 +34,7 @@ packages=(
   clang            # libFuzzer targets (tests/fuzz) run in CI
 )
 [ "$with_torch" = 1 ] && packages+=(libtorch-dev)
+[ "$with_mpi" = 1 ] && packages+=(libopenmpi-dev openmpi-bin)
 
 missing=()
 for p in "${packages[@]}"; do

@@ -5,6 +5,7 @@
 
 #include <maskadapt/core/blas_threads.hpp>
 #include <maskadapt/core/checkpoint.hpp>
+#include <maskadapt/core/collective.hpp>
 #include <maskadapt/mask/parts.hpp>
 #include <maskadapt/train/base_trainer.hpp>
 #include <maskadapt/train/config.hpp>
@@ -17,6 +18,7 @@
 
 #include <iostream>
 #include <memory>
+#include <sstream>
 
 namespace {
 
@@ -46,10 +48,21 @@ void run_train_base(const TrainBaseArgs& a) {
   using namespace maskadapt;
   using namespace maskadapt::train;
   // The option values were range-checked while parsing (cli_checks.hpp); −1 means "not given".
+  // Under mpirun every rank runs this with the same arguments; rank 0 reads the checkpoint to
+  // resume from and sends it to the others, and only rank 0 prints (docs/distributed.md).
+  Collective& world = maskadapt::world();
+  std::ostringstream quiet;
+  std::ostream& out = world.is_root() ? std::cout : quiet;
   BaseTrainConfig cfg = a.preset.empty() ? cpu_preset() : preset(a.preset, "--preset");
   std::unique_ptr<Checkpoint> resume;
   if (!a.resume.empty()) {
-    resume = std::make_unique<Checkpoint>(load_checkpoint(a.resume));
+    if (world.distributed()) {
+      Bytes bytes = world.is_root() ? serialize_checkpoint(load_checkpoint(a.resume)) : Bytes{};
+      world.broadcast(bytes, 0);
+      resume = std::make_unique<Checkpoint>(parse_checkpoint(bytes, a.resume));
+    } else {
+      resume = std::make_unique<Checkpoint>(load_checkpoint(a.resume));
+    }
     cfg = config_from_string(resume->get_string("config"), a.resume + " (config)");
   }
   const std::uint64_t checkpoint_seed = cfg.run.seed;
@@ -80,28 +93,38 @@ void run_train_base(const TrainBaseArgs& a) {
   throw Error("this build has no MuJoCo; train-base needs the maskadapt::mujoco target", {{}, std::nullopt, "train-base"});
 #else
   auto lib = load_motion_library(cfg.env.motions, motion_data_dir(MASKADAPT_SOURCE_DIR "/../shared/data"));
-  std::cout << "train-base: " << lib->num_clips() << " clip(s), " << lib->total_duration() << " s of motion; "
+  if (world.distributed())
+    require(cfg.env.num_envs % world.size() == 0,
+            std::to_string(cfg.env.num_envs) + " envs do not split evenly over " + std::to_string(world.size()) +
+                " ranks (each rank steps env.num_envs / ranks of them); choose --envs as a multiple of the rank count",
+            {{}, std::nullopt, "--envs"});
+  const auto envs_here = static_cast<std::size_t>(cfg.env.num_envs / world.size());
+  out << "train-base: " << lib->num_clips() << " clip(s), " << lib->total_duration() << " s of motion; "
             << cfg.env.num_envs << " envs, preset " << cfg.preset << ", masking " << (cfg.mask.enabled ? "on" : "off")
             << ", lambda_MI " << cfg.mask.lambda_mi << ", out " << cfg.run.out_dir << ", BLAS kernel " << blas_core_name()
+            << (world.distributed() ? ", " + std::to_string(world.size()) + " ranks x " + std::to_string(envs_here) + " envs" : std::string())
             << "\n";
   ThreadPool pool(static_cast<std::size_t>(cfg.run.threads));
-  MujocoHumanoidSim sim(static_cast<std::size_t>(cfg.env.num_envs), pool);
+  MujocoHumanoidSim sim(envs_here, pool);
   resolve_action_space(cfg, sim.skeleton(), lib.get());  // a resumed run's config holds them already
-  BaseTrainer<MujocoHumanoidSim> trainer(sim, library_reset_sampler(lib), library_window_sampler(lib, &pool), cfg, &pool);
+  BaseTrainer<MujocoHumanoidSim> trainer(sim, library_reset_sampler(lib), library_window_sampler(lib, &pool), cfg, &pool,
+                                         std::nullopt, &world);
   if (resume) {
     trainer.load(*resume);
-    std::cout << "train-base: resumed at iteration " << trainer.iteration() << " from " << a.resume << "\n";
+    out << "train-base: resumed at iteration " << trainer.iteration() << " from " << a.resume << "\n";
     if (cfg.run.seed != checkpoint_seed) {  // --seed S on a resume forks the run onto seed S
       trainer.reseed(cfg.run.seed);
-      std::cout << "train-base: forked from seed " << checkpoint_seed << " onto seed " << cfg.run.seed
+      out << "train-base: forked from seed " << checkpoint_seed << " onto seed " << cfg.run.seed
                 << " (random streams restart; parameters and env states continue)\n";
     }
   }
-  trainer.add_provenance(cli::provenance_line() + (resume ? " (resumed at iteration " + std::to_string(trainer.iteration()) +
+  trainer.add_provenance(cli::provenance_line() +
+                         (world.distributed() ? " (" + std::to_string(world.size()) + " MPI ranks)" : std::string()) +
+                         (resume ? " (resumed at iteration " + std::to_string(trainer.iteration()) +
                                                                 ", sample " + std::to_string(trainer.samples()) + ")"
                                                           : std::string()));
   const auto st = run_training(trainer, RunOptions{static_cast<bool>(resume), &std::cout, cli::stop_training_on_signals()});
-  std::cout << "train-base: done, " << trainer.iteration() << " iterations, " << trainer.samples()
+  out << "train-base: done, " << trainer.iteration() << " iterations, " << trainer.samples()
             << " samples; checkpoint " << cfg.run.out_dir << "/checkpoint.bin, log " << cfg.run.out_dir << "/log.jsonl\n";
   (void)st;
 #endif

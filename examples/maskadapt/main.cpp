@@ -2,10 +2,15 @@
 #include "command_registry.hpp"
 
 #include <maskadapt/core/blas_threads.hpp>
+#include <maskadapt/core/collective.hpp>
 #include <maskadapt/core/error.hpp>
+#ifdef MASKADAPT_HAS_MPI
+#include <maskadapt/mpi/collective.hpp>
+#endif
 
 #include <cstdlib>
 #include <iostream>
+#include <memory>
 #include <string>
 
 #include <unistd.h>  // execv
@@ -27,6 +32,33 @@ int main(int argc, char** argv) {
   }
   // The trainers parallelise over envs themselves; OpenBLAS threads would fight them.
   maskadapt::limit_blas_threads(1);
+#ifdef MASKADAPT_HAS_MPI
+  // Started by mpirun / mpiexec / srun: join the job (docs/distributed.md); else MPI stays untouched.
+  maskadapt::mpi::Session mpi_session(&argc, &argv);
+  std::unique_ptr<maskadapt::mpi::MpiCollective> mpi_world;
+  if (mpi_session.active()) {
+    mpi_world = std::make_unique<maskadapt::mpi::MpiCollective>();
+    maskadapt::world_slot() = mpi_world.get();
+  }
+  struct Restore {  // (the collective goes before MPI_Finalize)
+    ~Restore() { maskadapt::world_slot() = &maskadapt::single_process(); }
+  } restore_world;
+#endif
+  maskadapt::Collective& world = maskadapt::world();
+  if (world.distributed() && (argc < 2 || std::string(argv[1]) != "train-base")) {
+    if (world.is_root())
+      std::cerr << "maskadapt: error: " << world.size() << " ranks: only `train-base` runs distributed (under mpirun); start the "
+                << (argc >= 2 ? "`" + std::string(argv[1]) + "` command" : std::string("other commands")) << " without mpirun\n";
+    return 2;
+  }
+  // On K ranks an error on one of them stops them all (the others would wait in a collective),
+  // with a message that names the rank.
+  auto fail = [&](const std::string& what, int code) {
+    if (world.distributed())
+      world.abort("maskadapt: rank " + std::to_string(world.rank()) + " of " + std::to_string(world.size()) + ": " + what, code);
+    std::cerr << "maskadapt: " << what << "\n";
+    return code;
+  };
   for (int i = 0; i < argc; ++i) {
     const std::string word = i == 0 ? "maskadapt" : argv[i];
     auto& line = maskadapt::cli::invocation();
@@ -41,11 +73,9 @@ int main(int argc, char** argv) {
   } catch (const CLI::ParseError& e) {
     return app.exit(e);
   } catch (const maskadapt::Error& e) {
-    std::cerr << "maskadapt: error: " << e.what() << "\n";
-    return 1;
+    return fail(std::string("error: ") + e.what(), 1);
   } catch (const std::exception& e) {
-    std::cerr << "maskadapt: unexpected error: " << e.what() << "\n";
-    return 2;
+    return fail(std::string("unexpected error: ") + e.what(), 2);
   }
   return 0;
 }

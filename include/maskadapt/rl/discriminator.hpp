@@ -17,6 +17,7 @@
 ///
 /// A CML-style baseline is a DiscriminatorSet: one discriminator per body-part group, each
 /// producing one reward row (one PPO objective) with its own weight.
+#include <maskadapt/core/collective.hpp>
 #include <maskadapt/core/error.hpp>
 #include <maskadapt/core/rng.hpp>
 #include <maskadapt/core/types.hpp>
@@ -198,6 +199,70 @@ class Discriminator {
     const auto r = opt_.step(net_.block());
     st.grad_norm = r.grad_norm;
     st.skipped = !r.applied;
+    return st;
+  }
+
+  /// update() on K ranks that all hold the same batch (real: feature_dim × B_r, fake:
+  /// feature_dim × B_f, unconditioned; B_r, B_f ≥ K): rank r back-propagates its slices of it —
+  /// columns [B·r/K, B·(r+1)/K) of each — with the objective's and the gradient penalty's
+  /// gradients scaled by the slices' shares of the batch, the ranks' gradients are summed over
+  /// `comm` (rank order), and then every rank adds the same regularisers and takes the same
+  /// Adam step. The statistics are those of the whole batch. The discriminator's parameters,
+  /// normaliser and optimiser must be equal on every rank (they stay so).
+  DiscriminatorStats update_on_ranks(const Eigen::Ref<const MatrixX<T>>& real, const Eigen::Ref<const MatrixX<T>>& fake,
+                                     Collective& comm) {
+    require(config_.cond_dim == 0, "update_on_ranks takes an unconditioned discriminator", {{}, {}, "Discriminator.cond"});
+    const Index K = comm.size(), r = comm.rank(), NR = real.cols(), NF = fake.cols();
+    require(NR >= K && NF >= K, "each rank needs at least one real and one fake sample of the batch",
+            {{}, {}, "Discriminator.batch"});
+    const Index r0 = NR * r / K, nr = NR * (r + 1) / K - r0, f0 = NF * r / K, nf = NF * (r + 1) / K - f0;
+    const double share_r = static_cast<double>(nr) / static_cast<double>(NR);
+    const double share_f = static_cast<double>(nf) / static_cast<double>(NF);
+    DiscriminatorStats st;
+    in_both_.resize(config_.feature_dim, nr + nf);
+    const MatrixX<T> no_cond;
+    fill_input(real.middleCols(r0, nr), no_cond, in_both_.leftCols(nr));
+    fill_input(fake.middleCols(f0, nf), no_cond, in_both_.rightCols(nf));
+    net_.zero_grad();
+    auto grad = net_.grads();
+    const MatrixX<T>& d = net_.forward_train(in_both_, cache_);
+    const AmpObjective obj = amp_objective<T>(config_.loss, d.leftCols(nr), d.rightCols(nf), g_real_, g_fake_);
+    g_both_.resize(1, nr + nf);
+    g_both_.leftCols(nr) = g_real_ * static_cast<T>(share_r);
+    g_both_.rightCols(nf) = g_fake_ * static_cast<T>(share_f);
+    net_.backward(cache_, g_both_, grad);
+    double gp = 0;
+    if (config_.grad_penalty > 0)
+      gp = gradient_penalty<T>(net_, cache_, config_.feature_dim, config_.grad_penalty * share_r, grad, gp_ws_, nullptr, nr);
+    comm.all_reduce_sum(std::span<T>(grad.data(), static_cast<std::size_t>(grad.size())));
+    // (the objective's halves are means over real and fake; the batch halves are equal in the
+    // trainer, so the share-weighted sum of the ranks' objectives is the batch's)
+    double sums[5] = {obj.loss * share_r, obj.real_mean * share_r, obj.fake_mean * share_f, obj.accuracy * share_r, gp};
+    comm.all_reduce_sum(std::span<double>(sums, 5));
+    st.objective = sums[0];
+    st.real_mean = sums[1];
+    st.fake_mean = sums[2];
+    st.accuracy = sums[3];
+    st.grad_penalty = sums[4];
+    const Index L = net_.num_layers();
+    if (config_.logit_reg > 0) {
+      st.logit_reg = config_.logit_reg * static_cast<double>(net_.weight(L - 1).squaredNorm());
+      net_.weight_grad(L - 1) += static_cast<T>(2 * config_.logit_reg) * net_.weight(L - 1);
+    }
+    if (config_.weight_decay > 0) {
+      for (Index l = 0; l < L; ++l) {
+        st.weight_decay += config_.weight_decay * static_cast<double>(net_.weight(l).squaredNorm());
+        net_.weight_grad(l) += static_cast<T>(2 * config_.weight_decay) * net_.weight(l);
+      }
+    }
+    st.loss = st.objective + st.grad_penalty + st.logit_reg + st.weight_decay;
+    if (!std::isfinite(st.loss) || !net_.grads().allFinite()) {  // (the same on every rank: the sums are)
+      st.skipped = true;
+      return st;
+    }
+    const auto res = opt_.step(net_.block());
+    st.grad_norm = res.grad_norm;
+    st.skipped = !res.applied;
     return st;
   }
 

@@ -20,8 +20,25 @@
 /// All randomness comes from the trainer's Rng (actions, minibatches, discriminator batches)
 /// and the task's per-env streams, all checkpointed: `save`/`load` continue bit-exactly when the
 /// simulator can save its state (tasks::StateSavingSimulator).
+///
+/// Distributed (docs/distributed.md): given a Collective of K ranks, each rank steps its own
+/// block of the envs (rank r: global envs [r·n, (r+1)·n), n = sim.num_envs(), env.num_envs = K·n)
+/// with the random streams those envs have in one process, and draws the action noise of all
+/// K·n envs from the (replicated) trainer stream, keeping its own columns. PPO minibatches are
+/// drawn over all K·n·horizon samples; each rank computes the gradient of the samples it holds,
+/// scaled to its share of the minibatch, and the actor's and critic's gradients are summed over
+/// ranks (Collective::all_reduce_sum, rank order) before every Adam step, so every rank takes the
+/// same step. Advantages are normalised with the mean and deviation of all ranks; input
+/// normalisers merge every rank's batch statistics (Chan); the discriminator's agent windows are
+/// gathered from all ranks, so its batches and replay buffer are the same on every rank, and each
+/// rank back-propagates its slice of each batch before the ranks' discriminator gradients are
+/// summed (rl::Discriminator::update_on_ranks); episode statistics are summed. Rank 0's
+/// checkpoint holds every rank's envs in the layout of one process with K·n envs, plus
+/// `dist/ranks` = K; `load` refuses a checkpoint of another K.
+/// With the default SingleProcess nothing of this runs and the trainer is what it always was.
 #include <maskadapt/adapt/mi_loss.hpp>
 #include <maskadapt/core/checkpoint.hpp>
+#include <maskadapt/core/collective.hpp>
 #include <maskadapt/core/error.hpp>
 #include <maskadapt/core/rng.hpp>
 #include <maskadapt/nn/adam.hpp>
@@ -94,8 +111,10 @@ class BaseTrainer {
  public:
   /// `fall`: fall criteria for a skeleton other than the reference humanoid (default: the
   /// humanoid's feet/toes/hands contacts + head height `env.termination_height`).
+  /// `comm`: the ranks of a distributed run (nullptr: this process alone). Collective: every
+  /// rank constructs its trainer with the same config and a simulator of env.num_envs / K envs.
   BaseTrainer(Sim& sim, tasks::ResetSampler reset, RealWindowSampler real, BaseTrainConfig config,
-              ThreadPool* pool = nullptr, std::optional<FallCriteria> fall = std::nullopt)
+              ThreadPool* pool = nullptr, std::optional<FallCriteria> fall = std::nullopt, Collective* comm = nullptr)
       : cfg_((config.validate(), std::move(config))),
         task_(sim, std::move(reset), task_config(cfg_, std::move(fall)), cfg_.run.seed, pool),
         mi_gradient_(adapt::mi_gradient_from_string(cfg_.mask.mi_gradient, "mask.mi_gradient")),
@@ -117,6 +136,8 @@ class BaseTrainer {
     spec.amp_dim = task_.amp_dim();
     buf_.resize(spec);
     replay_ = rl::ReplayBuffer<float>(task_.amp_dim(), cfg_.disc.replay_size);
+    comm_ = comm ? comm : &single_process();
+    if (distributed()) join_ranks();
   }
 
   const BaseTrainConfig& config() const { return cfg_; }
@@ -124,6 +145,11 @@ class BaseTrainer {
   const BasePolicy& policy() const { return policy_; }
   long long iteration() const { return iteration_; }
   long long samples() const { return samples_; }
+  /// The ranks this trainer runs with (SingleProcess unless a Collective was given).
+  Collective& collective() const { return *comm_; }
+  bool distributed() const { return comm_->size() > 1; }
+  /// Index of this rank's first env among all ranks' envs (0 in one process).
+  Index env_offset() const { return env_offset_; }
   /// Network dimensions of this trainer's task.
   PolicyDims dims() const {
     return {task_.obs_dim(), task_.policy_input_dim(), task_.action_dim(), task_.amp_dim()};
@@ -142,8 +168,10 @@ class BaseTrainer {
     collect(st);
     update_from_rollout(st);
     ++iteration_;
-    samples_ += buf_.size();
-    finish_iteration_stats(st, iteration_, samples_, buf_.size(), total.seconds(), task_.stats());
+    const long long batch = buf_.size() * comm_->size();  // (every rank holds as many samples)
+    samples_ += batch;
+    if (distributed()) sum_episode_stats_over_ranks();
+    finish_iteration_stats(st, iteration_, samples_, batch, total.seconds(), task_.stats());
     train_seconds_ += st.time_total;
     return st;
   }
@@ -165,11 +193,15 @@ class BaseTrainer {
     st.time_disc += disc_update.seconds();
     // Input statistics change only between iterations, so the behaviour policy that produced
     // buf_.log_probs is exactly the policy at the start of the PPO update.
+    auto update_normalizers = [&](const MatrixXf& policy_input) {
+      if (distributed()) update_normalizers_over_ranks(policy_input, buf_.obs);
+      else policy_.ac.update_normalizers(policy_input, buf_.obs);
+    };
     if (policy_.ac.actor.hidden_groups.empty()) {
-      policy_.ac.update_normalizers(buf_.policy_input, buf_.obs);
+      update_normalizers(buf_.policy_input);
     } else {  // mask.hidden_value = mean: the actor's statistics from the unmasked inputs [s ; 0]
       adapt::unmasked_policy_input<float>(buf_.obs, task_.policy_input_dim(), unmasked_inputs_);
-      policy_.ac.update_normalizers(unmasked_inputs_, buf_.obs);
+      update_normalizers(unmasked_inputs_);
     }
     st.time_update += upd.seconds();
   }
@@ -196,22 +228,37 @@ class BaseTrainer {
     c.put_rng("trainer/rng", rng_);
     c.put_int("trainer/iteration", iteration_);
     c.put_int("trainer/samples", samples_);
-    save_task_state(c, "task/", task_);
+    if (distributed()) {  // every rank's envs, in the layout of one process with all of them
+      c.put_int("dist/ranks", comm_->size());
+      save_task_states_of_all_ranks(c);
+    } else {
+      save_task_state(c, "task/", task_);
+    }
     // provenance/ sections record how the run came about; they never affect training (and
     // differ between a straight and a resumed run: wall time)
     c.put_string("provenance/history", provenance_);
     c.put_double("provenance/train_seconds", train_seconds_);
   }
 
+  /// Distributed: collective; rank 0 writes the file (every rank's envs), the others write nothing.
   void save(const std::string& path) const {
     Checkpoint c;
     save(c);
-    save_checkpoint(path, c);
+    if (comm_->is_root()) save_checkpoint(path, c);
   }
 
   /// Restores a checkpoint written by `save` for the same network sizes and env count. Throws
-  /// naming the section on any mismatch.
+  /// naming the section on any mismatch. Distributed: every rank loads the same checkpoint
+  /// (the one rank 0 wrote) and takes its own envs from it; a checkpoint written by another
+  /// number of ranks is refused (`dist/ranks`).
   void load(const Checkpoint& c) {
+    const std::int64_t ranks = c.contains("dist/ranks") ? c.get_int("dist/ranks") : 1;
+    require(ranks == comm_->size(),
+            "the checkpoint was written by a run of " + std::to_string(ranks) + " rank(s), this run has " +
+                std::to_string(comm_->size()) + "; resume it with the same number of ranks" +
+                (ranks > 1 ? " (mpirun -np " + std::to_string(ranks) + ")" : std::string(" (without mpirun)")) +
+                ": how the envs are split over ranks is part of the run's state",
+            {c.source(), std::nullopt, "dist/ranks"});
     load_policy(c, policy_);
     apply_hidden_value();  // the run's config decides (a checkpoint from before the field has no groups)
     c.copy_to<float>("actor/adam", policy_.ac.actor.mean_net.block().storage());
@@ -240,7 +287,8 @@ class BaseTrainer {
     rng_.set_state(c.get_rng("trainer/rng"));
     iteration_ = c.get_int("trainer/iteration");
     samples_ = c.get_int("trainer/samples");
-    load_task_state(c, "task/", task_);
+    if (distributed()) load_task_state(slice_task_state(c, "task/", env_offset_, task_.num_envs()), "task/", task_);
+    else load_task_state(c, "task/", task_);
     // (checkpoints written before these records: the history is unknown, and so is the time)
     provenance_ = c.contains("provenance/history") ? c.get_string("provenance/history")
                                                    : std::string("(earlier chunks predate provenance records)\n");
@@ -255,7 +303,8 @@ class BaseTrainer {
   void reseed(std::uint64_t seed) {
     cfg_.run.seed = seed;
     rng_ = Rng::stream(seed, 0xB45E0000ULL);
-    task_.reseed(seed);
+    if (distributed()) restart_env_streams(seed, /*keep_states=*/true);
+    else task_.reseed(seed);
   }
 
   /// Appends one line to the run's history (what started or resumed it: date, git commit,
@@ -289,7 +338,8 @@ class BaseTrainer {
     for (Index t = 0; t < H; ++t) {
       Stopwatch inf;
       const Index c0 = buf_.step_begin(t);
-      actor.act(task_.policy_inputs(), rng_, actions_, logp_, mu_, actor_ws_, scratch_);
+      if (distributed()) act_on_my_columns();
+      else actor.act(task_.policy_inputs(), rng_, actions_, logp_, mu_, actor_ws_, scratch_);
       critic.value(task_.observations(), values_, critic_ws_, scratch_);
       buf_.record_policy_step(t, task_.observations(), task_.policy_inputs(), task_.masks(), actions_, logp_, values_);
       st.time_inference += inf.seconds();
@@ -324,7 +374,10 @@ class BaseTrainer {
     const MatrixXf no_cond;  // (empty: allocates nothing)
     auto r = buf_.rewards.row(0);  // (1 × N·H), includes reward_scale
     policy_.disc.reward(buf_.amp_windows, no_cond, r, reward_ws_);
-    st.disc_reward = r.template cast<double>().mean();
+    if (distributed())
+      st.disc_reward = all_reduce_sum(*comm_, r.template cast<double>().sum()) / static_cast<double>(r.size() * comm_->size());
+    else
+      st.disc_reward = r.template cast<double>().mean();
   }
 
   // ---- 4. PPO + MI --------------------------------------------------------------------------
@@ -335,8 +388,11 @@ class BaseTrainer {
     auto& [adv, pin, act, obs, full, norm_in, norm_obs, dmu, dls, dv, target, vold, mu_target, lp_old, a_mb, lp_new,
            dlogp] = mb_;
     adv = buf_.advantages;
-    rl::normalize_rows(adv);
-    const Index n = buf_.size();
+    const bool dist = distributed();
+    if (dist) normalize_advantages_over_ranks(adv);
+    else rl::normalize_rows(adv);
+    // n: samples of all ranks (minibatches are drawn over all of them); columns of buf_ are this rank's
+    const Index n = buf_.size() * comm_->size();
     const Index nmb = std::max<Index>(1, std::min<Index>(n, n / std::max<Index>(1, cfg_.ppo.minibatch_size)));
     double sum_pl = 0, sum_vl = 0, sum_kl = 0, sum_mi = 0, sum_cf = 0, sum_gn = 0;
     int count = 0;
@@ -347,7 +403,7 @@ class BaseTrainer {
     const bool ema_target = fixed_target && mi_gradient_ == adapt::MiGradient::TargetEma;
     if (fixed_target) {  // μ(s, m⁰) of the target policy for every sample, computed before the update
       adapt::unmasked_policy_input<float>(buf_.obs, task_.policy_input_dim(), unmasked_inputs_);
-      frozen_mu_.resize(actor.action_dim(), n);
+      frozen_mu_.resize(actor.action_dim(), buf_.size());
       if (ema_target) {
         if (mi_target_net_.num_params() == 0) mi_target_net_ = actor.mean_net;  // starts at the policy
         actor.normalize(unmasked_inputs_, scratch_);
@@ -357,9 +413,9 @@ class BaseTrainer {
       }
       // mi_kl then measures the distance to the target; the log also gets the pre-update policy's
       // own masked/unmasked KL over the rollout (what mi_kl is in the other modes)
-      diag_full_mu_.resize(actor.action_dim(), ema_target ? n : 0);
+      diag_full_mu_.resize(actor.action_dim(), ema_target ? buf_.size() : 0);
       if (ema_target) actor.mean(unmasked_inputs_, diag_full_mu_, actor_ws_, scratch_);
-      diag_masked_mu_.resize(actor.action_dim(), n);
+      diag_masked_mu_.resize(actor.action_dim(), buf_.size());
       actor.mean(buf_.policy_input, diag_masked_mu_, actor_ws_, scratch_);
       st.extra["kl_masked_unmasked"] = static_cast<double>(
           nn::kl_diag_gaussian_mean<float>(ema_target ? diag_full_mu_ : frozen_mu_, actor.log_std_col(), diag_masked_mu_,
@@ -367,66 +423,31 @@ class BaseTrainer {
       if (ema_target)  // how far the unmasked policy is from its target: the drift the anchor holds back
         st.extra["kl_target_unmasked"] = static_cast<double>(
             nn::kl_diag_gaussian_mean<float>(frozen_mu_, actor.log_std_col(), diag_full_mu_, actor.log_std_col(), {}));
+      if (dist)  // (means over equal shares: the mean of the ranks' means)
+        for (const char* key : {"kl_masked_unmasked", "kl_target_unmasked"})
+          if (st.extra.count(key)) st.extra[key] = all_reduce_sum(*comm_, st.extra[key]) / comm_->size();
     }
     for (int epoch = 0; epoch < cfg_.ppo.epochs; ++epoch) {
-      for (const auto& idx : rl::minibatch_indices(n, nmb, rng_)) {
-        rl::gather_columns(buf_.policy_input, idx, pin);
-        rl::gather_columns(buf_.actions, idx, act);
-        rl::gather_columns(buf_.obs, idx, obs);
-        rl::gather_columns(buf_.returns, idx, target);
-        rl::gather_columns(buf_.values, idx, vold);
-        const Index B = static_cast<Index>(idx.size());
-        lp_old.resize(B);
-        a_mb.resize(B);
-        for (Index j = 0; j < B; ++j) {
-          lp_old[j] = buf_.log_probs[idx[static_cast<std::size_t>(j)]];
-          a_mb[j] = adv(0, idx[static_cast<std::size_t>(j)]);
-        }
-        // actor: clipped surrogate (+ action-bound penalty) + λ_MI·L_MI
-        actor.zero_grad();
-        actor.normalize(pin, norm_in);
-        const MatrixXf& mu = actor.mean_net.forward_train(norm_in, actor_cache_);
-        lp_new.resize(B);
-        nn::gaussian_log_prob<float>(mu, actor.log_std_col(), act, lp_new);
-        const auto sur = rl::clipped_surrogate<float>(lp_new, lp_old, a_mb, cfg_.ppo.clip, dlogp);
-        dmu.setZero(mu.rows(), B);
-        nn::gaussian_log_prob_backward<float>(mu, actor.log_std_col(), act, dlogp, &dmu,
-                                              actor.learn_log_std ? &dls : nullptr);
-        // action-bound penalty on the PD targets beyond ±π rad (target = offset + scale ⊙ μ)
-        const float wb = static_cast<float>(cfg_.ppo.action_bound_weight);
-        policy_.actions.add_bound_penalty_grad(mu, static_cast<float>(M_PI), wb / static_cast<float>(B), bound_targets_, dmu);
-        // λ_MI·L_MI reuses the surrogate's masked pass: its ∂/∂μ joins dmu before the one backward
-        double mi_kl = 0;
-        if (fixed_target) {
-          rl::gather_columns(frozen_mu_, idx, mu_target);
-          mi_kl = adapt::mi_loss_on_fixed_target<float>(actor, mu_target, pin, mu, cfg_.mask.lambda_mi, mi_ws_, dmu,
-                                                        ema_target ? adapt::MiColumns::All : adapt::MiColumns::Masked)
-                      .kl;
-        } else if (cfg_.mask.enabled && !adapt::has_fixed_target(mi_gradient_)) {
-          adapt::unmasked_policy_input<float>(obs, task_.policy_input_dim(), full);
-          mi_kl = adapt::mi_loss_on_masked_pass<float>(actor, full, pin, mu, cfg_.mask.lambda_mi, mi_ws_, mi_gradient_, dmu)
-                      .kl;
-        }
-        actor.mean_net.backward(actor_cache_, dmu, actor.mean_net.grads());
-        if (actor.learn_log_std && dls.size()) actor.log_std.grads() += dls.col(0);
+      for (const auto& all_idx : rl::minibatch_indices(n, nmb, rng_)) {
+        // this rank's samples of the minibatch (all of them in one process) and their share of it:
+        // the losses below are means over the B samples here, so their gradients are scaled by
+        // B / B_all, and the ranks' gradients then add up to the minibatch mean
+        const auto& idx = dist ? my_columns(all_idx) : all_idx;
+        const Index B_all = static_cast<Index>(all_idx.size());
+        const double share = static_cast<double>(idx.size()) / static_cast<double>(B_all);
+        MinibatchResult mr = idx.empty() ? empty_minibatch() : minibatch_gradients(idx, B_all, share, fixed_target, ema_target);
+        if (dist) mr = sum_minibatch_over_ranks(mr, share);
         const auto ar = actor_opt_.step(actor.trainable_blocks());
         if (!ar.applied) ++st.skipped_updates;
         if (cfg_.ppo.actor_lr_schedule == "adaptive")  // next minibatch's step sized by this one's KL
-          actor_opt_.config().lr = rl::adapt_learning_rate(actor_opt_.config().lr, sur.approx_kl, cfg_.ppo.adaptive_lr);
-        // critic
-        critic.net.zero_grad();
-        critic.normalize(obs, norm_obs);
-        const MatrixXf& v = critic.net.forward_train(norm_obs, critic_cache_);
-        const double vl = rl::value_loss<float>(v, vold, target, 0.0, dv);
-        dv *= static_cast<float>(cfg_.ppo.critic_weight);
-        critic.net.backward(critic_cache_, dv, critic.net.grads());
+          actor_opt_.config().lr = rl::adapt_learning_rate(actor_opt_.config().lr, mr.approx_kl, cfg_.ppo.adaptive_lr);
         const auto cr = critic_opt_.step(critic.net.block());
         if (!cr.applied) ++st.skipped_updates;
-        sum_pl += sur.loss;
-        sum_vl += vl;
-        sum_kl += sur.approx_kl;
-        sum_cf += sur.clip_frac;
-        sum_mi += mi_kl;
+        sum_pl += mr.policy_loss;
+        sum_vl += mr.value_loss;
+        sum_kl += mr.approx_kl;
+        sum_cf += mr.clip_frac;
+        sum_mi += mr.mi_kl;
         sum_gn += ar.grad_norm;
         ++count;
       }
@@ -442,13 +463,88 @@ class BaseTrainer {
     if (ema_target) adapt::update_ema_target(mi_target_net_, actor.mean_net, cfg_.mask.mi_target_tau);
   }
 
+  /// Per-minibatch means (over this rank's samples until sum_minibatch_over_ranks, then over all ranks').
+  struct MinibatchResult {
+    double policy_loss = 0, value_loss = 0, approx_kl = 0, clip_frac = 0, mi_kl = 0;
+  };
+  MinibatchResult empty_minibatch() {
+    policy_.ac.actor.zero_grad();
+    policy_.ac.critic.net.zero_grad();
+    return {};
+  }
+
+  /// The actor's and critic's gradients of one minibatch (this rank's columns `idx` of a
+  /// minibatch of B_all samples, `share` = |idx| / B_all) into their grads(); returns the losses.
+  /// In one process (share 1) the arithmetic is that of the trainer before distribution.
+  MinibatchResult minibatch_gradients(const std::vector<Index>& idx, Index B_all, double share, bool fixed_target,
+                                      bool ema_target) {
+    auto& actor = policy_.ac.actor;
+    auto& critic = policy_.ac.critic;
+    auto& [adv, pin, act, obs, full, norm_in, norm_obs, dmu, dls, dv, target, vold, mu_target, lp_old, a_mb, lp_new,
+           dlogp] = mb_;
+    const bool scaled = share != 1.0;
+    rl::gather_columns(buf_.policy_input, idx, pin);
+    rl::gather_columns(buf_.actions, idx, act);
+    rl::gather_columns(buf_.obs, idx, obs);
+    rl::gather_columns(buf_.returns, idx, target);
+    rl::gather_columns(buf_.values, idx, vold);
+    const Index B = static_cast<Index>(idx.size());
+    lp_old.resize(B);
+    a_mb.resize(B);
+    for (Index j = 0; j < B; ++j) {
+      lp_old[j] = buf_.log_probs[idx[static_cast<std::size_t>(j)]];
+      a_mb[j] = adv(0, idx[static_cast<std::size_t>(j)]);
+    }
+    // actor: clipped surrogate (+ action-bound penalty) + λ_MI·L_MI
+    actor.zero_grad();
+    actor.normalize(pin, norm_in);
+    const MatrixXf& mu = actor.mean_net.forward_train(norm_in, actor_cache_);
+    lp_new.resize(B);
+    nn::gaussian_log_prob<float>(mu, actor.log_std_col(), act, lp_new);
+    const auto sur = rl::clipped_surrogate<float>(lp_new, lp_old, a_mb, cfg_.ppo.clip, dlogp);
+    if (scaled) dlogp *= static_cast<float>(share);
+    dmu.setZero(mu.rows(), B);
+    nn::gaussian_log_prob_backward<float>(mu, actor.log_std_col(), act, dlogp, &dmu,
+                                          actor.learn_log_std ? &dls : nullptr);
+    // action-bound penalty on the PD targets beyond ±π rad (target = offset + scale ⊙ μ)
+    const float wb = static_cast<float>(cfg_.ppo.action_bound_weight);
+    policy_.actions.add_bound_penalty_grad(mu, static_cast<float>(M_PI), wb / static_cast<float>(B_all), bound_targets_, dmu);
+    // λ_MI·L_MI reuses the surrogate's masked pass: its ∂/∂μ joins dmu before the one backward
+    double mi_kl = 0;
+    const double lambda_mi = scaled ? cfg_.mask.lambda_mi * share : cfg_.mask.lambda_mi;
+    if (fixed_target) {
+      rl::gather_columns(frozen_mu_, idx, mu_target);
+      mi_kl = adapt::mi_loss_on_fixed_target<float>(actor, mu_target, pin, mu, lambda_mi, mi_ws_, dmu,
+                                                    ema_target ? adapt::MiColumns::All : adapt::MiColumns::Masked)
+                  .kl;
+    } else if (cfg_.mask.enabled && !adapt::has_fixed_target(mi_gradient_)) {
+      adapt::unmasked_policy_input<float>(obs, task_.policy_input_dim(), full);
+      mi_kl = adapt::mi_loss_on_masked_pass<float>(actor, full, pin, mu, lambda_mi, mi_ws_, mi_gradient_, dmu)
+                  .kl;
+    }
+    actor.mean_net.backward(actor_cache_, dmu, actor.mean_net.grads());
+    if (actor.learn_log_std && dls.size()) actor.log_std.grads() += dls.col(0);
+    // critic (its gradient does not depend on the actor's step, which the caller takes after
+    // both gradients are complete — and summed over ranks)
+    critic.net.zero_grad();
+    critic.normalize(obs, norm_obs);
+    const MatrixXf& v = critic.net.forward_train(norm_obs, critic_cache_);
+    const double vl = rl::value_loss<float>(v, vold, target, 0.0, dv);
+    dv *= static_cast<float>(scaled ? cfg_.ppo.critic_weight * share : cfg_.ppo.critic_weight);
+    critic.net.backward(critic_cache_, dv, critic.net.grads());
+    return {sur.loss, vl, sur.approx_kl, sur.clip_frac, mi_kl};
+  }
+
   // ---- 5. discriminator -------------------------------------------------------------------
   // BCE (or LSGAN) on real motion-library windows vs agent windows (half fresh, half replayed),
   // + gradient penalty on the real samples, logit regularisation and weight decay
   // (rl::Discriminator::update; a non-finite loss or gradient skips the step).
   void update_discriminator(IterationStats& st) {
     auto& disc = policy_.disc;
-    const Index n = buf_.size(), B = cfg_.disc.batch_size, half = B / 2, D = task_.amp_dim();
+    // the agent windows of all ranks (distributed: gathered, so that every rank draws the same
+    // batches, keeps the same replay buffer and takes the same steps)
+    const MatrixXf& amp = distributed() ? gather_amp_windows() : buf_.amp_windows;
+    const Index n = amp.cols(), B = cfg_.disc.batch_size, half = B / 2, D = task_.amp_dim();
     const Index steps = std::max<Index>(1, cfg_.disc.epochs * n / B);
     MatrixXf &real = disc_real_, &fake = disc_fake_, &rep = disc_replayed_;
     real.resize(D, B);
@@ -458,10 +554,10 @@ class BaseTrainer {
     for (Index s = 0; s < steps; ++s) {
       real_(rng_, real);
       for (Index j = 0; j < B - half; ++j)
-        fake.col(j) = buf_.amp_windows.col(static_cast<Index>(rng_.uniform_int(static_cast<std::uint64_t>(n))));
+        fake.col(j) = amp.col(static_cast<Index>(rng_.uniform_int(static_cast<std::uint64_t>(n))));
       if (replay_.empty()) {
         for (Index j = B - half; j < B; ++j)
-          fake.col(j) = buf_.amp_windows.col(static_cast<Index>(rng_.uniform_int(static_cast<std::uint64_t>(n))));
+          fake.col(j) = amp.col(static_cast<Index>(rng_.uniform_int(static_cast<std::uint64_t>(n))));
       } else {
         replay_.sample(half, rng_, rep);
         fake.rightCols(half) = rep;
@@ -470,19 +566,213 @@ class BaseTrainer {
         disc.update_normalizer(real);
         disc.update_normalizer(fake.leftCols(B - half));
       }
-      const rl::DiscriminatorStats ds = disc.update(real, no_cond, fake, no_cond);
+      // (distributed: each rank back-propagates its slice of the batch; gradients summed over ranks)
+      const rl::DiscriminatorStats ds =
+          distributed() ? disc.update_on_ranks(real, fake, *comm_) : disc.update(real, no_cond, fake, no_cond);
       if (ds.skipped) ++st.skipped_updates;
       sum_real += ds.real_mean;
       sum_fake += ds.fake_mean;
       sum_loss += ds.loss;
       sum_gp += ds.grad_penalty;
     }
-    replay_.push(buf_.amp_windows);
+    replay_.push(amp);
     st.disc_real = sum_real / static_cast<double>(steps);
     st.disc_fake = sum_fake / static_cast<double>(steps);
     st.disc_loss = sum_loss / static_cast<double>(steps);
     st.disc_grad_penalty = sum_gp / static_cast<double>(steps);
   }
+
+  // ---- distributed runs (nothing here runs in one process) ---------------------------------
+
+  /// Checks the ranks agree, finds this rank's env block and restarts its envs from the streams
+  /// those envs have in one process (the task seeded them as envs 0…n−1).
+  void join_ranks() {
+    const Index n = task_.num_envs();
+    require_same_on_all_ranks(*comm_, n, "envs per rank (the simulator's num_envs)");
+    require_same_on_all_ranks(*comm_, static_cast<std::int64_t>(policy_.ac.actor.mean_net.num_params() +
+                                                                policy_.ac.critic.net.num_params() +
+                                                                policy_.disc.net().num_params()),
+                              "network parameter count");
+    require_same_on_all_ranks(*comm_, static_cast<std::int64_t>(cfg_.run.seed), "run.seed");
+    env_offset_ = comm_->rank() * n;
+    require(cfg_.env.num_envs == comm_->size() * n,
+            "env.num_envs is " + std::to_string(cfg_.env.num_envs) + " but " + std::to_string(comm_->size()) +
+                " ranks with " + std::to_string(n) + " envs each step " + std::to_string(comm_->size() * n),
+            {{}, std::nullopt, "env.num_envs"});
+    restart_env_streams(cfg_.run.seed, /*keep_states=*/false);
+  }
+
+  /// Gives this rank's env e the stream Rng::stream(seed, env_offset + e) of global env
+  /// env_offset + e. keep_states: the envs continue where they are (with a simulator that can
+  /// save its state; otherwise they are reset); else every env is reset from its new stream.
+  void restart_env_streams(std::uint64_t seed, bool keep_states) {
+    auto ts = task_.save_state();
+    for (std::size_t e = 0; e < ts.rngs.size(); ++e)
+      ts.rngs[e] = Rng::stream(seed, static_cast<std::uint64_t>(env_offset_) + e).state();
+    if (!keep_states) ts.sim.clear();  // (load_state then resets every env from its stream)
+    task_.load_state(ts);
+  }
+
+  /// The action draw of the collection: the noise of all ranks' envs comes from the replicated
+  /// trainer stream in one process's order, and this rank keeps its columns (so each env gets
+  /// the noise it gets in one process).
+  void act_on_my_columns() {
+    auto& actor = policy_.ac.actor;
+    const Index N = task_.num_envs(), A = task_.action_dim(), all = N * comm_->size();
+    mu_.resize(A, N);
+    actor.mean(task_.policy_inputs(), mu_, actor_ws_, scratch_);
+    wide_mu_.setZero(A, all);
+    wide_mu_.middleCols(env_offset_, N) = mu_;
+    wide_actions_.resize(A, all);
+    nn::gaussian_sample<float>(wide_mu_, actor.log_std_col(), rng_, wide_actions_);
+    actions_ = wide_actions_.middleCols(env_offset_, N);
+    logp_.resize(N);
+    nn::gaussian_log_prob<float>(mu_, actor.log_std_col(), actions_, logp_);
+  }
+
+  /// Columns of buf_ that hold this rank's samples of a minibatch of global sample indices
+  /// (global sample t·N_all + e is env e at step t; this rank's column is t·N + e − offset).
+  const std::vector<Index>& my_columns(const std::vector<Index>& global) {
+    const Index N = task_.num_envs(), all = N * comm_->size();
+    my_idx_.clear();
+    for (const Index g : global) {
+      const Index t = g / all, e = g % all - env_offset_;
+      if (e >= 0 && e < N) my_idx_.push_back(t * N + e);
+    }
+    return my_idx_;
+  }
+
+  /// Sums the actor's and critic's minibatch gradients over ranks (one all-reduce) and turns
+  /// this rank's loss means into means over the whole minibatch.
+  MinibatchResult sum_minibatch_over_ranks(const MinibatchResult& mine, double share) {
+    auto& actor = policy_.ac.actor;
+    auto& critic = policy_.ac.critic;
+    auto ga = actor.mean_net.grads();
+    auto gs = actor.log_std.grads();
+    auto gc = critic.net.grads();
+    reduce_f_.resize(static_cast<std::size_t>(ga.size() + gs.size() + gc.size()));
+    float* p = reduce_f_.data();
+    std::copy(ga.data(), ga.data() + ga.size(), p);
+    std::copy(gs.data(), gs.data() + gs.size(), p + ga.size());
+    std::copy(gc.data(), gc.data() + gc.size(), p + ga.size() + gs.size());
+    comm_->all_reduce_sum(std::span<float>(reduce_f_));
+    std::copy(p, p + ga.size(), ga.data());
+    std::copy(p + ga.size(), p + ga.size() + gs.size(), gs.data());
+    std::copy(p + ga.size() + gs.size(), p + reduce_f_.size(), gc.data());
+    double m[5] = {mine.policy_loss * share, mine.value_loss * share, mine.approx_kl * share, mine.clip_frac * share,
+                   mine.mi_kl * share};
+    comm_->all_reduce_sum(std::span<double>(m, 5));
+    return {m[0], m[1], m[2], m[3], m[4]};
+  }
+
+  /// rl::normalize_rows with the mean and deviation of all ranks' advantages.
+  void normalize_advantages_over_ranks(MatrixXf& adv, double eps = 1e-8) {
+    const double count = static_cast<double>(adv.cols()) * comm_->size();
+    for (Index k = 0; k < adv.rows(); ++k) {
+      const double mean = all_reduce_sum(*comm_, adv.row(k).template cast<double>().sum()) / count;
+      const double var =
+          all_reduce_sum(*comm_, (adv.row(k).template cast<double>().array() - mean).square().sum()) / count;
+      const double inv = 1.0 / (std::sqrt(var) + eps);
+      for (Index j = 0; j < adv.cols(); ++j) adv(k, j) = static_cast<float>((static_cast<double>(adv(k, j)) - mean) * inv);
+    }
+  }
+
+  /// The input normalisers see every rank's batch: each rank's (count, mean, M2) are gathered
+  /// and merged in rank order into one batch, which is merged into the running statistics.
+  void update_normalizers_over_ranks(const MatrixXf& policy_input, const MatrixXf& obs) {
+    auto merge = [&](const MatrixXf& x, nn::RunningNormalizer<float>& running) {
+      nn::RunningNormalizer<float> mine(x.rows());
+      mine.update(x);
+      std::vector<double> v{mine.count()};
+      v.insert(v.end(), mine.mean().data(), mine.mean().data() + x.rows());
+      v.insert(v.end(), mine.m2().data(), mine.m2().data() + x.rows());
+      nn::RunningNormalizer<float> batch(x.rows()), part(x.rows());
+      for (const Bytes& b : comm_->all_gather(to_bytes<double>(v))) {
+        const auto w = from_bytes<double>(b, "normaliser statistics");
+        require(static_cast<Index>(w.size()) == 1 + 2 * x.rows(), "ranks disagree on an input normaliser's size",
+                {{}, std::nullopt, "normalizer"});
+        part.set_state(w[0], Eigen::Map<const VectorXd>(w.data() + 1, x.rows()),
+                       Eigen::Map<const VectorXd>(w.data() + 1 + x.rows(), x.rows()));
+        batch.merge(part);
+      }
+      running.merge(batch);
+    };
+    if (policy_.ac.actor.normalize_inputs) merge(policy_input, policy_.ac.actor.normalizer);
+    if (policy_.ac.critic.normalize_inputs) merge(obs, policy_.ac.critic.normalizer);
+  }
+
+  /// Every rank's discriminator windows (amp_dim × N·horizon each) as one (amp_dim × N_all·horizon)
+  /// matrix in one process's column order (step-major: column t·N_all + global env).
+  const MatrixXf& gather_amp_windows() {
+    const MatrixXf& mine = buf_.amp_windows;
+    const Index D = mine.rows(), N = task_.num_envs(), H = mine.cols() / N, all = N * comm_->size();
+    const auto parts = comm_->all_gather(to_bytes<float>(std::span<const float>(mine.data(), static_cast<std::size_t>(mine.size()))));
+    global_amp_.resize(D, all * H);
+    for (std::size_t r = 0; r < parts.size(); ++r) {
+      require(parts[r].size() == static_cast<std::size_t>(mine.size()) * sizeof(float),
+              "rank " + std::to_string(r) + " sent discriminator windows of another size", {{}, std::nullopt, "amp_windows"});
+      const Eigen::Map<const MatrixXf> w(reinterpret_cast<const float*>(parts[r].data()), D, N * H);
+      for (Index t = 0; t < H; ++t) global_amp_.middleCols(t * all + static_cast<Index>(r) * N, N) = w.middleCols(t * N, N);
+    }
+    return global_amp_;
+  }
+
+  /// Episode counters of the iteration summed over ranks (rank order), on every rank.
+  void sum_episode_stats_over_ranks() {
+    auto& es = task_.stats();
+    double v[7] = {static_cast<double>(es.episodes), static_cast<double>(es.falls), static_cast<double>(es.truncations),
+                   es.total_seconds, static_cast<double>(es.steps), static_cast<double>(es.masked_steps),
+                   static_cast<double>(es.sim_resets)};
+    comm_->all_reduce_sum(std::span<double>(v, 7));
+    es.episodes = static_cast<long long>(v[0]);
+    es.falls = static_cast<long long>(v[1]);
+    es.truncations = static_cast<long long>(v[2]);
+    es.total_seconds = v[3];
+    es.steps = static_cast<long long>(v[4]);
+    es.masked_steps = static_cast<long long>(v[5]);
+    es.sim_resets = static_cast<long long>(v[6]);
+  }
+
+  /// Rank 0's `c` gets every rank's task state (checkpoint layout of one process with all envs).
+  /// Also checks that the replicated state (parameters) is the same on every rank.
+  void save_task_states_of_all_ranks(Checkpoint& c) const {
+    Checkpoint mine;
+    save_task_state(mine, "task/", task_);
+    const Bytes bytes = serialize_checkpoint(mine);
+    const auto parts = comm_->gather(bytes, 0);
+    // the ranks' parameters must agree bit for bit (they take the same steps from the same sums)
+    const std::uint64_t h = parameter_fingerprint();
+    const auto all = all_gather_concat<std::uint64_t>(*comm_, std::span<const std::uint64_t>(&h, 1));
+    for (std::size_t r = 1; r < all.size(); ++r)  // (every rank sees the same list, so all of them throw)
+      require(all[r] == all[0],
+              "rank " + std::to_string(r) + "'s network parameters differ from rank 0's at iteration " +
+                  std::to_string(iteration_) + ": the ranks have diverged (no checkpoint written; the last one is kept)",
+              {{}, std::nullopt, "dist/parameters"});
+    if (!comm_->is_root()) return;
+    std::vector<Checkpoint> ranks;
+    for (std::size_t r = 0; r < parts.size(); ++r) ranks.push_back(parse_checkpoint(parts[r], "rank " + std::to_string(r) + " task state"));
+    concat_task_states(ranks, "task/", c);
+  }
+
+  /// FNV-1a over the actor's, critic's and discriminator's parameter bytes.
+  std::uint64_t parameter_fingerprint() const {
+    std::uint64_t h = 1469598103934665603ULL;
+    auto add = [&](const auto& v) {
+      const auto* b = reinterpret_cast<const unsigned char*>(v.data());
+      for (std::size_t i = 0; i < static_cast<std::size_t>(v.size()) * sizeof(float); ++i) h = (h ^ b[i]) * 1099511628211ULL;
+    };
+    add(policy_.ac.actor.mean_net.params());
+    add(policy_.ac.critic.net.params());
+    add(policy_.disc.net().params());
+    return h;
+  }
+
+  Collective* comm_ = nullptr;  ///< never null after construction (SingleProcess by default)
+  Index env_offset_ = 0;        ///< global index of this rank's first env
+  MatrixXf wide_mu_, wide_actions_;  ///< (action_dim × N_all) the collection's noise draw over all ranks' envs
+  std::vector<Index> my_idx_;   ///< this rank's columns of the current minibatch
+  std::vector<float> reduce_f_; ///< gradients of one minibatch, packed for the all-reduce
+  MatrixXf global_amp_;         ///< (amp_dim × N_all·horizon) all ranks' discriminator windows
 
   BaseTrainConfig cfg_;
   tasks::ImitationTask<Sim> task_;

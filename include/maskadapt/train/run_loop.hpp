@@ -3,6 +3,7 @@
 /// The outer loop of a training run: iteration/minute budget, JSONL log, progress line,
 /// periodic + final checkpoints in `run.out_dir`, and a clean stop on request (a signal).
 #include <maskadapt/core/checkpoint.hpp>
+#include <maskadapt/core/collective.hpp>
 #include <maskadapt/train/base_trainer.hpp>
 #include <maskadapt/train/config.hpp>
 #include <maskadapt/train/progress.hpp>
@@ -34,14 +35,25 @@ inline std::atomic<bool>& stop_requested() {
 /// `<out>/config.json`, `<out>/log.jsonl`, `<out>/checkpoint.bin` (every checkpoint_every
 /// iterations and at the end) and, with `run.keep_checkpoints`, `<out>/checkpoint_<it>.bin`
 /// copies of the periodic ones. Returns the last stats.
+///
+/// A distributed trainer (one with `collective()`, docs/distributed.md): every rank runs this
+/// loop; rank 0 decides when to stop (budget, stop request) and tells the others, and only rank
+/// 0 writes the config, log, progress line and checkpoint files (saving is collective).
 template <class Trainer>
 IterationStats run_training(Trainer& trainer, const RunOptions& opt = {}) {
   const BaseTrainConfig& cfg = trainer.config();
   namespace fs = std::filesystem;
+  Collective* comm = &single_process();
+  if constexpr (requires { trainer.collective(); }) comm = &trainer.collective();
+  const bool root = comm->is_root();
   const fs::path out = cfg.run.out_dir;
-  fs::create_directories(out);
-  save_config(cfg, (out / "config.json").string());
-  JsonlLog log((out / "log.jsonl").string(), opt.append_log);
+  JsonlLog log;
+  if (root) {
+    fs::create_directories(out);
+    save_config(cfg, (out / "config.json").string());
+    log = JsonlLog((out / "log.jsonl").string(), opt.append_log);
+  }
+  std::ostream* progress = root ? opt.progress : nullptr;
   Stopwatch clock;
   const double budget_s = cfg.run.minutes > 0 ? 60.0 * cfg.run.minutes : 0.0;
   const long long start_it = trainer.iteration();
@@ -52,12 +64,17 @@ IterationStats run_training(Trainer& trainer, const RunOptions& opt = {}) {
       trainer.save((out / ("checkpoint_" + std::to_string(trainer.iteration()) + ".bin")).string());
   };
   while (true) {
-    if (opt.stop && opt.stop->load()) {
-      if (opt.progress) *opt.progress << "stop requested: checkpoint at iteration " << trainer.iteration() << std::endl;
+    // 0: go on, 1: stop requested, 2: budget spent (rank 0's clock decides for every rank)
+    Bytes decision{0};
+    if (opt.stop && opt.stop->load()) decision[0] = 1;
+    else if (cfg.run.iterations > 0 && trainer.iteration() >= cfg.run.iterations) decision[0] = 2;
+    else if (budget_s > 0 && clock.seconds() >= budget_s) decision[0] = 2;
+    if (comm->distributed()) comm->broadcast(decision, 0);
+    if (decision[0] == 1) {
+      if (progress) *progress << "stop requested: checkpoint at iteration " << trainer.iteration() << std::endl;
       break;
     }
-    if (cfg.run.iterations > 0 && trainer.iteration() >= cfg.run.iterations) break;
-    if (budget_s > 0 && clock.seconds() >= budget_s) break;
+    if (decision[0] == 2) break;
     st = trainer.iterate();
     st.elapsed_s = clock.seconds();
     const double per_it = st.elapsed_s / static_cast<double>(trainer.iteration() - start_it);
@@ -66,7 +83,7 @@ IterationStats run_training(Trainer& trainer, const RunOptions& opt = {}) {
     if (budget_s > 0) eta = std::isfinite(eta) ? std::min(eta, budget_s - st.elapsed_s) : budget_s - st.elapsed_s;
     st.eta_s = eta;
     log.write(to_json(st));
-    if (opt.progress) *opt.progress << format_progress(st, cfg.run.iterations) << std::endl;
+    if (progress) *progress << format_progress(st, cfg.run.iterations) << std::endl;
     if (trainer.iteration() % cfg.run.checkpoint_every == 0) checkpoint(true);
   }
   checkpoint(false);
