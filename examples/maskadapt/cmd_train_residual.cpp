@@ -136,7 +136,8 @@ ResidualSetup<Sim> make_setup(const ResidualTrainConfig& c, const std::shared_pt
     return [lib](Rng& r, Index B, MatrixXf& w, MatrixXf&) { w = lib->sample_amp_windows(r, static_cast<int>(B)); };
   };
   const std::vector<double> w = c.objective_weights;
-  if (is_goal_task(c.task) && c.new_motions.empty()) {  // a goal on the base's own motion: imitate A
+  // a goal on the base's own motion (AdaptNet always: it adapts the base, it adds no motion): imitate A
+  if (is_goal_task(c.task) && (c.new_motions.empty() || c.method == "adaptnet")) {
     s.masks = {c.method == "scratch" ? PartMask::all() : s.masks.front()};
     s.switch_rate = 0;
     s.discriminators.push_back({"imitation", w.size() > 0 ? w[0] : 0.5, {}, false, from(base_lib), {}});
@@ -285,21 +286,43 @@ void run_train_residual(const Args& a) {
   for (const auto& m : setup.masks) std::cout << " " << m.to_string();
   std::cout << ", " << setup.discriminators.size() << " discriminator(s), out " << c.rl.run.out_dir
             << ", BLAS kernel " << blas_core_name() << "\n";
-  ResidualTrainer<MujocoHumanoidSim> trainer(sim, library_reset_sampler(base_lib), std::move(base), std::move(setup), c, &pool);
-  if (resume) {
-    trainer.load(*resume);
-    std::cout << "train-residual: resumed at iteration " << trainer.iteration() << " from " << a.resume << "\n";
-  }
-  std::cout << "train-residual: " << describe_actions(trainer.policy().actions(), c.rl.net) << "\n";
-  std::filesystem::create_directories(c.rl.run.out_dir);
-  std::ofstream(c.rl.run.out_dir + "/residual_config.json") << to_json(c).dump(2) << "\n";
-  run_training(trainer, RunOptions{static_cast<bool>(resume), &std::cout, cli::stop_training_on_signals()});
-  std::cout << "train-residual: done, " << trainer.iteration() << " iterations; checkpoint " << c.rl.run.out_dir
-            << "/checkpoint.bin";
-  if (trainer.goal_task()) std::cout << "; last " << c.task << " reward " << trainer.last_goal_reward();
-  std::cout << "\n";
+  // the policy on the frozen base: the residual (ours, cml, scratch) or AdaptNet
+  auto train = [&]<class Policy>() {
+    ResidualTrainer<MujocoHumanoidSim, Policy> trainer(sim, library_reset_sampler(base_lib), std::move(base), std::move(setup), c,
+                                                       &pool);
+    if (resume) {
+      trainer.load(*resume);
+      std::cout << "train-residual: resumed at iteration " << trainer.iteration() << " from " << a.resume << "\n";
+    }
+    std::cout << "train-residual: " << describe_actions(trainer.policy().actions(), c.rl.net) << "\n";
+    std::filesystem::create_directories(c.rl.run.out_dir);
+    std::ofstream(c.rl.run.out_dir + "/residual_config.json") << to_json(c).dump(2) << "\n";
+    run_training(trainer, RunOptions{static_cast<bool>(resume), &std::cout, cli::stop_training_on_signals()});
+    std::cout << "train-residual: done, " << trainer.iteration() << " iterations; checkpoint " << c.rl.run.out_dir
+              << "/checkpoint.bin";
+    if (trainer.goal_task()) std::cout << "; last " << c.task << " reward " << trainer.last_goal_reward();
+    std::cout << "\n";
+  };
+  if (c.method == "adaptnet") train.template operator()<adapt::AdaptNetPolicy<float>>();
+  else train.template operator()<adapt::ResidualPolicy<float>>();
 #endif
 }
+
+#ifdef MASKADAPT_HAS_MUJOCO
+/// One frame of a goal task's scene for the viewer: the location target, the heading arrow from
+/// the root, the strike box's pose.
+void add_scene_frame(eval::RolloutScene& scene, tasks::AnyGoalTask<MujocoHumanoidSim>& goal, const MujocoHumanoidSim& sim,
+                     const BodyStates& b) {
+  if (auto* loc = goal.as<tasks::LocationTask>()) scene.targets.push_back({{loc->target(0), loc->config().radius}});
+  if (auto* head = goal.as<tasks::HeadingTask>())
+    scene.arrows.push_back({eval::heading_arrow(b.pos.col(0), head->direction(0), head->speed(0))});
+  if (goal.as<tasks::StrikeTask>()) {
+    const RigidState& box = sim.object_state(0, 0);
+    scene.objects[0].positions.push_back(box.pos);
+    scene.objects[0].rotations.push_back(box.rot);
+  }
+}
+#endif
 
 struct PlayArgs {
   std::string checkpoint, mask_schedule = "0:lower_body", text, bvh, rollout, generator;
@@ -316,10 +339,12 @@ void run_play(const PlayArgs& a, const std::string& command_line) {
 #else
   require(!a.bvh.empty() || !a.rollout.empty(), "nothing to write: give --bvh and/or --rollout", {{}, {}, "play-residual"});
   const Checkpoint ck = load_checkpoint(a.checkpoint);
-  MujocoHumanoidSim sim(1);
+  const ResidualTrainConfig c = residual_config_from_json(nlohmann::json::parse(ck.get_string("residual_config")), a.checkpoint);
+  require(c.method != "adaptnet", "play-residual does not play AdaptNet checkpoints yet (eval-residual evaluates them)",
+          {a.checkpoint, std::nullopt, "method"});
+  MujocoHumanoidSim sim(1, 1, humanoid_description(), task_objects(c.task));  // (strike: with its box)
   const Skeleton& skel = sim.skeleton();
-  ResidualTrainConfig c;
-  const adapt::ResidualPolicy<float> pol = residual_policy_from_checkpoint(ck, skel, &c);
+  const adapt::ResidualPolicy<float> pol = residual_policy_from_checkpoint(ck, skel);
   const Index obs_dim = observation_dim(skel), A = skel.num_dofs();
   const PartMask designated = PartMask::parse(c.designated);
   const bool tracking_task = c.task == "tracking";
@@ -336,6 +361,12 @@ void run_play(const PlayArgs& a, const std::string& command_line) {
   const Index steps = std::max<Index>(1, std::llround(a.seconds / sim.control_dt()));
   const double t0 = 4 * kAmpFrameDt;
   sim.reset(0, lib->state(0, t0));
+  // goal tasks: the run's task draws goals on its schedule from this seed (target, heading, box)
+  tasks::AnyGoalTask<MujocoHumanoidSim> goal;
+  if (is_goal_task(c.task)) {
+    goal = make_goal_task(c.task, sim, static_cast<std::uint64_t>(a.seed));
+    goal.new_episode(sim, 0);
+  }
   if (tracking_task) {
     require(!a.generator.empty() || !c.generator.empty(), "tracking playback needs a generator", {{}, {}, "--generator"});
     gen = std::make_unique<tracking::BuiltinGenerator>(tracking::BuiltinGenerator::load(a.generator.empty() ? c.generator : a.generator, skel));
@@ -361,10 +392,14 @@ void run_play(const PlayArgs& a, const std::string& command_line) {
   } else {
     roll.metadata.extra["mask_schedule"] = mask_spec;
   }
+  if (goal) {
+    roll.scene.emplace();
+    if (c.task == "strike") roll.scene->objects.push_back({"strike_box", sim.objects().front().half_size, {}, {}});
+  }
   MatrixXf obs(obs_dim, 1), x, mu, targets_rad, goals(pol.goal_dim(), 1);
   adapt::ResidualWorkspace<float> ws;
   const PartElements pe(observation_parts(skel));
-  double track_err = 0;
+  double track_err = 0, goal_reward = 0;
   PartMask last = PartMask::none();
   for (Index t = 0; t < steps; ++t) {
     const double time = static_cast<double>(t) * sim.control_dt();
@@ -372,7 +407,8 @@ void run_play(const PlayArgs& a, const std::string& command_line) {
     if (t == 0 || m[0] != last) std::cout << "play-residual: t=" << time << " s, adapted parts " << m[0].to_string() << "\n";
     last = m[0];
     compute_observation(skel, sim.body_states(0), obs.col(0));
-    if (pol.goal_dim() > 0) tracking::extract_goals(skel, bodies, targets, t, c.goal_steps, goals.col(0));
+    if (tracking_task) tracking::extract_goals(skel, bodies, targets, t, c.goal_steps, goals.col(0));
+    if (goal) goal.goal(sim, 0, goals.col(0));
     pol.build_input(pe, obs, m, goals, x, ws);
     pol.mean(x, m, mu, ws);
     pol.to_targets(mu, targets_rad);  // offset + scale ⊙ â (the base's action space)
@@ -382,6 +418,10 @@ void run_play(const PlayArgs& a, const std::string& command_line) {
     out.set_rot(static_cast<int>(t), b.rot[0]);
     out.q.col(static_cast<int>(t)) = sim.joint_angles(0);
     eval::add_frame(roll, b, m[0], sim.contacts(0));
+    if (goal) {  // what the policy was asked this step, then the task's bookkeeping (a play never resets)
+      add_scene_frame(*roll.scene, goal, sim, b);
+      goal_reward += goal.after_step(sim, 0, false).reward;
+    }
     if (tracking_task) {
       track_err += tracking::position_error(bodies, targets, t + 1, b);
       // the targets as the character should reach them: root-relative heading-frame positions
@@ -399,6 +439,8 @@ void run_play(const PlayArgs& a, const std::string& command_line) {
   }
   std::cout << "play-residual: " << steps << " steps, final root height " << sim.body_states(0).pos(2, 0) << " m";
   if (tracking_task) std::cout << ", mean tracking error " << track_err / static_cast<double>(steps) << " m";
+  if (goal) std::cout << ", mean " << c.task << " reward " << goal_reward / static_cast<double>(steps) << ", trials ended "
+                      << goal.trials().trials << " (successes " << goal.trials().successes << ")";
   std::cout << "\n";
   if (!a.bvh.empty()) {
     bvh::write(a.bvh, clip_to_bvh(out, skel));
@@ -427,11 +469,7 @@ void run_eval(const EvalArgs& a) {
   throw Error("this build has no MuJoCo; eval-residual needs the maskadapt::mujoco target", {{}, std::nullopt, "eval-residual"});
 #else
   const Checkpoint ck = load_checkpoint(a.checkpoint);
-  ResidualTrainConfig c;
-  {
-    MujocoHumanoidSim probe(1);
-    (void)residual_policy_from_checkpoint(ck, probe.skeleton(), &c);
-  }
+  const ResidualTrainConfig c = residual_config_from_json(nlohmann::json::parse(ck.get_string("residual_config")), a.checkpoint);
   const std::string task = a.task.empty() ? c.task : a.task;
   require(task == c.task, "this checkpoint was trained for " + c.task + ", not " + task, {{}, {}, "--task"});
   if (is_goal_task(task)) {  // goal tasks read --envs and --mask of the composition flags
@@ -452,16 +490,21 @@ void run_eval(const EvalArgs& a) {
   if (is_goal_task(task)) {
     ThreadPool pool(static_cast<std::size_t>(c.rl.run.threads));
     MujocoHumanoidSim sim(static_cast<std::size_t>(a.envs), pool, humanoid_description(), task_objects(task));
-    const auto pol = residual_policy_from_checkpoint(ck, sim.skeleton());
-    // the mask the policy runs with: --mask, else the first training mask (scratch: every part)
+    // the mask the policy runs with: --mask, else the first training mask (scratch: every part;
+    // AdaptNet ignores masks)
     const PartMask mask = c.method == "scratch" ? PartMask::all() : PartMask::parse(a.mask.empty() ? c.masks.front() : a.mask, "--mask");
     GoalEvalOptions opt;
     opt.min_trials = a.trials;
     opt.deterministic = !a.stochastic;
     opt.seed = static_cast<std::uint64_t>(a.seed);
     opt.episode_seconds = c.rl.env.episode_seconds;
-    const GoalEvalResult r = evaluate_goal_task(sim, pol, make_goal_task(task, sim, opt.seed), mask, library_reset_sampler(base_lib),
-                                                std::nullopt, opt, &pool);
+    auto evaluate = [&]<class Policy>() {
+      const auto pol = stage2_policy_from_checkpoint<Policy>(ck, sim.skeleton());
+      return evaluate_goal_task(sim, pol, make_goal_task(task, sim, opt.seed), mask, library_reset_sampler(base_lib), std::nullopt, opt,
+                                &pool);
+    };
+    const GoalEvalResult r = c.method == "adaptnet" ? evaluate.template operator()<adapt::AdaptNetPolicy<float>>()
+                                                    : evaluate.template operator()<adapt::ResidualPolicy<float>>();
     std::printf("eval-residual %s: success %.1f %% (95 %% CI %.1f-%.1f %%) over %lld trials; %d envs x %lld steps, mask %s, "
                 "mean %s reward %.3f, fall rate %.3f\n",
                 task.c_str(), 100 * r.trials.rate(), 100 * r.ci_low, 100 * r.ci_high, r.trials.trials, a.envs, r.steps,
@@ -555,7 +598,8 @@ const bool registered = maskadapt::cli::register_command([](CLI::App& app) {
   auto keep = [&](CLI::Option* o) { fixed_by_resume.push_back(o); return o; };
   keep(c->add_option("--task", a->task, "composition | tracking | location | heading | strike (goal tasks: --new-motion optional)"))
       ->check(one_of({"composition", "tracking", "location", "heading", "strike"}));
-  keep(c->add_option("--method", a->method, "ours | cml | scratch"))->check(one_of({"ours", "cml", "scratch"}));
+  keep(c->add_option("--method", a->method, "ours | cml | scratch | adaptnet (goal tasks)"))
+      ->check(one_of({"ours", "cml", "scratch", "adaptnet"}));
   keep(c->add_option("--base", a->base, "stage-1 checkpoint (train-base output)"));
   keep(c->add_option("--new-motion", a->new_motion, "new motion set B: builtin name | DIR | FILE ..."));
   keep(c->add_option("--motions", a->motions, "base motion set A (default: the preset's env.motions)"));

@@ -3,7 +3,8 @@
 # composition (ours and cml) and tracking (with a 2-iteration generator), a resume, play-residual
 # with a mask schedule and with a text schedule (BVH + viewer rollout), eval-residual for both
 # tasks (shrunk), a composition run + resume + play + eval on a base with normalised actions, and
-# the goal tasks (location, heading, strike: train, a strike resume, eval's success rate).
+# the goal tasks (location, heading, strike: train, a strike resume, eval's success rate, play with
+# the goals in the rollout; AdaptNet on heading).
 # Every output must exist and parse.
 file(REMOVE_RECURSE ${OUT})
 file(MAKE_DIRECTORY ${OUT})
@@ -135,5 +136,24 @@ foreach(task location heading strike)
   endif()
 endforeach()
 run("train-residual --resume (strike)" train-residual --resume ${OUT}/goal_strike/checkpoint.bin --iterations 2 --out ${OUT}/goal_strike)
+# play-residual draws the goals: the strike box's pose and the location target in every frame
+foreach(task location strike)
+  run("play-residual ${task}" play-residual ${OUT}/goal_${task}/checkpoint.bin --seconds 1 --rollout ${OUT}/play_${task}.json)
+  require_json(${OUT}/play_${task}.json)
+  file(READ ${OUT}/play_${task}.json j)
+  if(task STREQUAL "strike")
+    string(JSON n LENGTH "${j}" scene objects 0 positions)
+  else()
+    string(JSON n LENGTH "${j}" scene targets)
+  endif()
+  if(NOT n EQUAL 30)
+    message(FATAL_ERROR "play_${task}.json: ${n} scene frames, expected 30")
+  endif()
+endforeach()
+# AdaptNet (the goal tasks' third method) trains and evaluates through the same commands
+run("train-residual adaptnet" train-residual --task heading --method adaptnet --base ${BASE} --iterations 1 ${tiny}
+    --out ${OUT}/goal_adaptnet)
+run("eval-residual adaptnet" eval-residual ${OUT}/goal_adaptnet/checkpoint.bin --envs 2 --trials 2 --out ${OUT}/eval_adaptnet.json)
+require_json(${OUT}/eval_adaptnet.json)
 
 message(STATUS "stage-2 CLI smoke OK: composition ours/cml + resume, tracking, play (mask/text), eval (H_norm adapted ${h}, success ${sr})")
