@@ -2,13 +2,18 @@
 //
 //   maskadapt motion info FILE [--joint-map MAP.json] [--markdown]
 //   maskadapt motion import FILE --out CLIP.npz [--joint-map MAP.json] [--fps 30] [--loop] [--label TEXT]…
+//                           [--character humanoid|g1]
 //   maskadapt motion export CLIP --bvh OUT.bvh [--z-up]
 //
 // FILE / CLIP: a BVH file (retargeted onto the humanoid), an AMASS .npz, a maskadapt clip .npz,
-// or a built-in clip `synthetic:walk|arms|kick|jump`.
+// or a built-in clip `synthetic:walk|arms|kick|jump`. `import --character g1` retargets the humanoid
+// clip further onto the G1-like robot (g1/retarget.hpp) and writes a G1 clip (g1/clip.hpp's .npz
+// format), printing the quality figures of g1/retarget_quality.hpp.
 #include "cli_checks.hpp"
 #include "command_registry.hpp"
 
+#include <maskadapt/g1/retarget.hpp>
+#include <maskadapt/g1/retarget_quality.hpp>
 #include <maskadapt/humanoid/description.hpp>
 #include <maskadapt/motion/bvh.hpp>
 #include <maskadapt/motion/clip.hpp>
@@ -28,6 +33,7 @@ using namespace maskadapt;
 
 struct MotionOptions {
   std::string file, out, bvh_out, joint_map;
+  std::string character = "humanoid";  ///< import: humanoid | g1
   double fps = 30.0;
   bool loop = false, markdown = false, z_up = false;
   bool fps_given = false;  ///< --fps was on the command line
@@ -101,6 +107,23 @@ void import_cmd(const MotionOptions& o) {
           {o.file, std::nullopt, "--fps"});
   if (!o.labels.empty()) c.labels = o.labels;
   if (o.loop) c.loop = true;
+  if (o.character == "g1") {
+    require(o.labels.empty(), "G1 clips carry no text labels (import onto the humanoid to label a clip)",
+            {o.file, std::nullopt, "--label"});
+    g1::G1RetargetReport rep;
+    const g1::G1Clip g = g1::retarget_to_g1(c, {}, &rep);
+    g1::save_g1_clip(o.out, g);
+    std::printf("wrote %s: G1 clip, %d frames at %.0f fps (%.2f s), %d joints\n", o.out.c_str(), g.num_frames(), g.fps,
+                g.duration(), g1::kNumJoints);
+    std::printf("retargeting: root scale %.3f, hand scale %.3f, head scale %.3f; IK iterations %.1f per frame (all "
+                "passes), max %d in one solve, %d unconverged solves; feet in stance %.0f%%, root lowered up to %.1f cm, "
+                "%d frames lifted (max %.1f cm)\n",
+                rep.root_scale, rep.effector_scale, rep.head_scale, rep.mean_iterations, rep.max_iterations,
+                rep.unconverged_frames, 100 * rep.stance_fraction, 100 * rep.max_offset, rep.lifted_frames,
+                100 * rep.max_lift);
+    std::cout << g1::g1_retarget_quality(g, c).to_string() << "\n";
+    return;
+  }
   save_clip(o.out, c);
   std::printf("wrote %s: %d frames at %.0f fps (%.2f s)\n", o.out.c_str(), c.num_frames(), c.fps, c.duration());
 }
@@ -123,13 +146,17 @@ const bool registered = maskadapt::cli::register_command([](CLI::App& app) {
   inf->add_flag("--markdown", opt->markdown, "print one Markdown table row (docs/motion.md)");
   inf->callback([opt] { info(*opt); });
 
-  CLI::App* imp = motion->add_subcommand("import", "Retarget a motion onto the humanoid and save it as a clip (.npz)");
+  CLI::App* imp = motion->add_subcommand(
+      "import", "Retarget a motion onto the humanoid (or further onto the G1 robot) and save it as a clip (.npz)");
   imp->add_option("file", opt->file, "BVH, AMASS .npz or synthetic:NAME")->required();
   imp->add_option("--out", opt->out, "output clip (.npz)")->required();
   imp->add_option("--joint-map", opt->joint_map, "joint map JSON for an unknown BVH skeleton");
   imp->add_option("--fps", opt->fps, "output frame rate (Hz)")->check(maskadapt::cli::positive_real(1000));
   imp->add_flag("--loop", opt->loop, "mark the clip as cyclic");
   imp->add_option("--label", opt->labels, "text label (repeatable)");
+  imp->add_option("--character", opt->character,
+                  "character of the output clip: humanoid (default) or g1 (retargeted onto the G1 robot, a G1 clip)")
+      ->check(maskadapt::cli::one_of({"humanoid", "g1"}));
   imp->callback([opt, imp] {
     opt->fps_given = imp->count("--fps") > 0;
     import_cmd(*opt);

@@ -1,4 +1,4 @@
-# cmake -DCLI=…/maskadapt -DOUT=… -DHAS_MUJOCO=ON|OFF -P bad_flags.cmake
+# cmake -DCLI=…/maskadapt -DOUT=… -DHAS_MUJOCO=ON|OFF [-DDATA=…/shared/data] -P bad_flags.cmake
 #
 # bad(FLAG VALUE ARGS...): `maskadapt ARGS...` must exit with a non-zero status that is not a
 # crash (a signal), a timeout or main's "unexpected error" (status 2), and its output must name
@@ -197,6 +197,7 @@ foreach(v 0 -30 nan inf 1001 abc)
 endforeach()
 # a valid rate that would be ignored: built-in clips are not resampled
 bad(--fps - motion import synthetic:walk --out ${OUT}/x.npz --fps 60)
+bad(--character robot motion import synthetic:walk --out ${OUT}/x.npz --character robot)
 
 # ---- train-generator / generate ------------------------------------------------------------
 set(G train-generator --data ${OUT}/no_clips --out ${OUT}/never.ckpt)
@@ -255,4 +256,13 @@ good("train-generator" "stride 10\\)" train-generator --data ${OUT}/no_clips --i
 good("generate" "generated 15 frames" generate --checkpoint ${OUT}/gen.ckpt --seconds 0.5 --guidance 0 --seed 3
      --bvh ${OUT}/gen.bvh)
 good("motion import" "at 30 fps" motion import synthetic:walk --fps 30 --out ${OUT}/walk30.npz)
+# onto the G1 (a G1 clip and its quality figures); on a shared clip when DATA has them
+good("motion import --character g1" "G1 clip, [0-9]+ frames.*joint-limit violations 0," motion import synthetic:walk
+     --character g1 --out ${OUT}/walk_g1.npz)
+if(DATA AND EXISTS ${DATA}/motions/cmu/02_01_walk.bvh)
+  good("motion import --character g1 (CMU 02_01)" "G1 clip, 86 frames.*joint-limit violations 0,.*ground penetration 0.00 cm"
+       motion import ${DATA}/motions/cmu/02_01_walk.bvh --character g1 --out ${OUT}/02_01_g1.npz)
+else()
+  message(STATUS "motion import --character g1 on a shared clip: skipped (no ${DATA}/motions/cmu)")
+endif()
 message(STATUS "CLI flag validation OK: ${count} bad values rejected naming the flag; good values run")
