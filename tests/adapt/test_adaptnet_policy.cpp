@@ -5,6 +5,7 @@
 #include <maskadapt/adapt/adaptnet_policy.hpp>
 #include <maskadapt/adapt/residual_policy.hpp>
 #include <maskadapt/nn/adam.hpp>
+#include <maskadapt/train/stage2_policy.hpp>
 
 #include <gtest/gtest.h>
 
@@ -358,32 +359,9 @@ TEST(AdaptNetPolicy, LoadRejectsWrongSizesNamingTheSection) {
   EXPECT_EQ(field_of_load(ck6, p6), "base/actor/params");
 }
 
-// The stage-2 trainer's calls on its policy compile against both policies.
-template <class P, class WS, class C>
-concept Stage2Policy = requires(P& p, const P& cp, C& c, WS& ws, const PartElements& pe, MatrixXf& m, RowVectorX<float>& r,
-                                Rng& rng, Checkpoint& ck, std::span<const PartMask> masks) {
-  { cp.input_dim() } -> std::convertible_to<Index>;
-  { cp.action_dim() } -> std::convertible_to<Index>;
-  { cp.goal_dim() } -> std::convertible_to<Index>;
-  cp.build_input(pe, m, masks, m, m, ws);
-  cp.act(m, masks, rng, m, r, m, ws);
-  cp.mean(m, masks, m, ws);
-  { cp.forward_train(m, masks, c) } -> std::same_as<const MatrixXf&>;
-  cp.log_prob(c, m, r);
-  P::log_prob_mean_grad(c, m, r, m);
-  p.backward(c, m);
-  p.zero_grad();
-  { p.trainable_blocks() } -> std::same_as<std::vector<nn::ParameterBlock<float>*>>;
-  p.residual().normalizer.update(m);
-  p.residual().log_std.params();
-  { cp.actions() } -> std::same_as<const tasks::ActionSpace&>;
-  cp.to_targets(m, m);
-  cp.save(ck, true);
-  p.load(ck, true);
-  cp.base();
-};
-static_assert(Stage2Policy<adapt::ResidualPolicy<float>, adapt::ResidualWorkspace<float>, adapt::ResidualTrainCache<float>>);
-static_assert(Stage2Policy<adapt::AdaptNetPolicy<float>, adapt::AdaptNetWorkspace<float>, adapt::AdaptNetTrainCache<float>>);
+// The stage-2 trainer's calls on its policy (train::Stage2Policy) compile against both policies.
+static_assert(train::Stage2Policy<adapt::ResidualPolicy<float>>);
+static_assert(train::Stage2Policy<adapt::AdaptNetPolicy<float>>);
 
 TEST(AdaptNetPolicy, RejectsWrongShapes) {
   const auto pol = an_make_policy<float>();

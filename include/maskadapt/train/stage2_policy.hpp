@@ -18,6 +18,7 @@
 /// | `p.residual().normalizer`, `p.residual().log_std` | the input normaliser and the learned log σ |
 /// | `cp.actions()`, `cp.to_targets(a, targets)` | the base's action space: PD targets |
 /// | `cp.save(ck, with_base)`, `p.load(ck, with_base)` | checkpoint sections |
+/// | `cp.base()` | the frozen stage-1 actor |
 #include <maskadapt/adapt/adaptnet_policy.hpp>
 #include <maskadapt/adapt/residual_policy.hpp>
 #include <maskadapt/humanoid/description.hpp>
@@ -67,6 +68,7 @@ concept Stage2Policy = requires(P& p, const P& cp, typename Stage2Types<P>::Cach
   cp.to_targets(m, m);
   cp.save(ck, true);
   p.load(cck, true);
+  cp.base();
 };
 static_assert(Stage2Policy<adapt::ResidualPolicy<float>>);
 static_assert(Stage2Policy<adapt::AdaptNetPolicy<float>>);
