@@ -150,6 +150,9 @@ if(HAS_MUJOCO)
   bad(--term-threshold - train-residual --method scratch --task composition --new-motion kick --term-threshold 0.1
       --iterations 1 --out ${OUT}/never)
   bad(--switch-rate - train-residual --method scratch --task tracking --switch-rate 1 --iterations 1 --out ${OUT}/never)
+  # AdaptNet adapts the base to a goal task only; a goal task refuses the tracking flags
+  bad(--method - train-residual --method adaptnet --task composition --new-motion kick --iterations 1 --out ${OUT}/never)
+  bad(--generator - train-residual --method scratch --task location --generator x.ckpt --iterations 1 --out ${OUT}/never)
 endif()
 
 # ---- play / play-residual ------------------------------------------------------------------------
@@ -189,6 +192,9 @@ foreach(v 0 nan)
 endforeach()
 bad(--repeats 0 eval-residual ${MISSING} --repeats 0)
 bad(--task foo eval-residual ${MISSING} --task foo)
+foreach(v 0 -3 1.5 x)
+  bad(--trials ${v} eval-residual ${MISSING} --trials ${v})
+endforeach()
 bad(--mask elbows eval-residual ${MISSING} --mask elbows)
 
 # ---- motion ------------------------------------------------------------------------------------
