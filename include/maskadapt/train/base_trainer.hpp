@@ -55,6 +55,7 @@
 #include <maskadapt/rl/rollout_buffer.hpp>
 #include <maskadapt/tasks/imitation.hpp>
 #include <maskadapt/train/base_policy.hpp>
+#include <maskadapt/train/collect.hpp>
 #include <maskadapt/train/task_state.hpp>
 #include <maskadapt/train/config.hpp>
 #include <maskadapt/train/progress.hpp>
@@ -330,44 +331,31 @@ class BaseTrainer {
 
   // ---- 1. collection ----------------------------------------------------------------------
   void collect(IterationStats& st) {
-    const Index N = task_.num_envs(), H = cfg_.ppo.horizon, A = task_.action_dim();
-    auto& actor = policy_.ac.actor;
-    auto& critic = policy_.ac.critic;
-    mu_.resize(A, N);
-    values_.resize(1, N);
-    for (Index t = 0; t < H; ++t) {
-      Stopwatch inf;
-      const Index c0 = buf_.step_begin(t);
-      if (distributed()) act_on_my_columns();
-      else actor.act(task_.policy_inputs(), rng_, actions_, logp_, mu_, actor_ws_, scratch_);
-      critic.value(task_.observations(), values_, critic_ws_, scratch_);
-      buf_.record_policy_step(t, task_.observations(), task_.policy_inputs(), task_.masks(), actions_, logp_, values_);
-      st.time_inference += inf.seconds();
-
-      Stopwatch sim;
-      task_.step(actions_);
-      st.time_sim += sim.seconds();
-
-      Stopwatch inf2;
-      buf_.amp_windows.middleCols(c0, N) = task_.amp_windows();
-      bool any_truncated = false;
-      for (Index e = 0; e < N; ++e) {
-        const auto ue = static_cast<std::size_t>(e);
-        buf_.terminated[static_cast<std::size_t>(c0 + e)] = task_.terminated()[ue];
-        buf_.truncated[static_cast<std::size_t>(c0 + e)] = task_.truncated()[ue];
-        any_truncated |= task_.truncated()[ue] != 0;
-      }
-      if (any_truncated) {
-        critic.value(task_.final_observations(), values_, critic_ws_, scratch_);
-        buf_.final_values.middleCols(c0, N) = values_;
-      }
-      st.time_inference += inf2.seconds();
-    }
-    Stopwatch inf;
-    critic.value(task_.observations(), values_, critic_ws_, scratch_);
-    buf_.bootstrap_values = values_;
-    st.time_inference += inf.seconds();
+    mu_.resize(task_.action_dim(), task_.num_envs());
+    values_.resize(1, task_.num_envs());
+    Collector agent{*this};
+    collect_rollout(task_, buf_, agent, st);
   }
+  /// The base policy as the collection loop's agent (train/collect.hpp): actions on [s̄ ; m]
+  /// (PD targets through the task's action space), episodes end as the task says.
+  struct Collector {
+    BaseTrainer& t;
+    const MatrixXf& act(Index step, Index /*c0*/) {
+      auto& ac = t.policy_.ac;
+      if (t.distributed()) t.act_on_my_columns();
+      else ac.actor.act(t.task_.policy_inputs(), t.rng_, t.actions_, t.logp_, t.mu_, t.actor_ws_, t.scratch_);
+      ac.critic.value(t.task_.observations(), t.values_, t.critic_ws_, t.scratch_);
+      t.buf_.record_policy_step(step, t.task_.observations(), t.task_.policy_inputs(), t.task_.masks(), t.actions_, t.logp_,
+                                t.values_);
+      return t.actions_;
+    }
+    void end_step(Index, Index, StepEnd&) {}
+    const MatrixXf& final_values(const MatrixXf& final_obs) {
+      t.policy_.ac.critic.value(final_obs, t.values_, t.critic_ws_, t.scratch_);
+      return t.values_;
+    }
+    const MatrixXf& bootstrap_values() { return final_values(t.task_.observations()); }
+  };
 
   // ---- 2. discriminator rewards -----------------------------------------------------------
   void compute_rewards(IterationStats& st) {
@@ -394,8 +382,7 @@ class BaseTrainer {
     // n: samples of all ranks (minibatches are drawn over all of them); columns of buf_ are this rank's
     const Index n = buf_.size() * comm_->size();
     const Index nmb = std::max<Index>(1, std::min<Index>(n, n / std::max<Index>(1, cfg_.ppo.minibatch_size)));
-    double sum_pl = 0, sum_vl = 0, sum_kl = 0, sum_mi = 0, sum_cf = 0, sum_gn = 0;
-    int count = 0;
+    PpoMinibatchMeans means;
     // No target while no episode is masked (the warm-up): the warm-up stays bit-identical to plain
     // AMP in every gradient mode, and the EMA target starts from the policy where masking starts.
     const bool fixed_target =
@@ -443,21 +430,10 @@ class BaseTrainer {
           actor_opt_.config().lr = rl::adapt_learning_rate(actor_opt_.config().lr, mr.approx_kl, cfg_.ppo.adaptive_lr);
         const auto cr = critic_opt_.step(critic.net.block());
         if (!cr.applied) ++st.skipped_updates;
-        sum_pl += mr.policy_loss;
-        sum_vl += mr.value_loss;
-        sum_kl += mr.approx_kl;
-        sum_cf += mr.clip_frac;
-        sum_mi += mr.mi_kl;
-        sum_gn += ar.grad_norm;
-        ++count;
+        means.add(mr.policy_loss, mr.value_loss, mr.approx_kl, mr.clip_frac, mr.mi_kl, ar.grad_norm);
       }
     }
-    st.policy_loss = sum_pl / count;
-    st.value_loss = sum_vl / count;
-    st.approx_kl = sum_kl / count;
-    st.clip_frac = sum_cf / count;
-    st.mi_kl = sum_mi / count;
-    st.grad_norm = sum_gn / count;
+    means.write(st);
     st.entropy = nn::gaussian_entropy_of_column<float>(actor.log_std_col());
     st.actor_lr = actor_opt_.config().lr;
     if (ema_target) adapt::update_ema_target(mi_target_net_, actor.mean_net, cfg_.mask.mi_target_tau);

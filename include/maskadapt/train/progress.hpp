@@ -66,6 +66,30 @@ struct IterationStats {
   std::map<std::string, double> extra;
 };
 
+/// Sums of the PPO minibatch figures over an update; `write` stores their means in the stats.
+struct PpoMinibatchMeans {
+  double policy_loss = 0, value_loss = 0, approx_kl = 0, clip_frac = 0, mi_kl = 0, grad_norm = 0;
+  int count = 0;
+  void add(double pl, double vl, double kl, double cf, double mi, double gn) {
+    policy_loss += pl;
+    value_loss += vl;
+    approx_kl += kl;
+    clip_frac += cf;
+    mi_kl += mi;
+    grad_norm += gn;
+    ++count;
+  }
+  void write(IterationStats& st) const {
+    const double n = count > 0 ? count : 1;
+    st.policy_loss = policy_loss / n;
+    st.value_loss = value_loss / n;
+    st.approx_kl = approx_kl / n;
+    st.clip_frac = clip_frac / n;
+    st.mi_kl = mi_kl / n;
+    st.grad_norm = grad_norm / n;
+  }
+};
+
 /// Fills the counters, throughput and episode columns of `st` at the end of an iteration that
 /// collected `batch` samples in `seconds`; `es` is the task's tasks::EpisodeStats of the iteration.
 /// mask_fraction is the fraction of steps with a non-empty mask.

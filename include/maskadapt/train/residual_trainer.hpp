@@ -5,6 +5,7 @@
 /// body-part group), for partial tracking (imitation discriminator on the non-designated parts +
 /// the tracking task) and for the goal-driven tasks (location, heading, strike).
 ///
+/// The collection loop is stage 1's (train/collect.hpp) with this trainer's agent.
 /// Everything is one code path over a list of discriminators (rl::DiscriminatorSet) plus an
 /// optional goal task (tasks/goal_task.hpp: tracking, location, heading, strike — any type that
 /// models `tasks::GoalTask`); each produces one reward row = one PPO objective. The critic has
@@ -19,7 +20,8 @@
 ///     from a set (optionally switching mid-episode); g the goal task's observation; after each
 ///     step the goal task gives its reward and may end the episode (the env is then reset);
 ///  2. rewards: row k = −log(max(1 − D_k(window_k | m), 1e−4)); the goal task's row last;
-///  3. GAE per objective (PopArt-denormalised values), PPO on the residual and the gain;
+///  3. GAE per objective (PopArt-denormalised values), PPO on the residual and the gain
+///     (train/stage2_learner.hpp: the critic, PopArt, Adam and the PPO step live there);
 ///  4. discriminator steps: real samples from each source (blends for ours), fake = agent windows
 ///     (+ replay) (+ negative-expert blends with mismatched masks for conditioned members).
 /// The base actor is never stepped (test: bit-identical parameters after training).
@@ -49,23 +51,21 @@
 #include <maskadapt/core/error.hpp>
 #include <maskadapt/core/rng.hpp>
 #include <maskadapt/humanoid/description.hpp>
-#include <maskadapt/nn/adam.hpp>
-#include <maskadapt/nn/popart.hpp>
 #include <maskadapt/rl/actor_critic.hpp>
-#include <maskadapt/rl/adaptive_lr.hpp>
 #include <maskadapt/rl/discriminator.hpp>
 #include <maskadapt/rl/gae.hpp>
-#include <maskadapt/rl/ppo_loss.hpp>
 #include <maskadapt/rl/replay_buffer.hpp>
 #include <maskadapt/rl/rollout_buffer.hpp>
 #include <maskadapt/tasks/composition.hpp>
 #include <maskadapt/tasks/goal_task.hpp>
 #include <maskadapt/tasks/imitation.hpp>
 #include <maskadapt/train/base_policy.hpp>
+#include <maskadapt/train/collect.hpp>
 #include <maskadapt/train/config.hpp>
 #include <maskadapt/train/progress.hpp>
 #include <maskadapt/train/residual_config.hpp>
 #include <maskadapt/train/reward_discriminators.hpp>
+#include <maskadapt/train/stage2_learner.hpp>
 #include <maskadapt/train/stage2_policy.hpp>
 #include <maskadapt/train/task_state.hpp>
 
@@ -116,17 +116,7 @@ class ResidualTrainer {
     K_ = static_cast<Index>(setup_.discriminators.size()) + (setup_.goal ? 1 : 0);
     for (const auto& d : setup_.discriminators) weights_.push_back(d.weight);
     if (setup_.goal) weights_.push_back(setup_.goal_weight);
-    rl::ActorCriticConfig cc;
-    cc.policy_input_dim = critic_dim();
-    cc.critic_input_dim = critic_dim();
-    cc.action_dim = 1;
-    cc.num_values = K_;
-    cc.critic_hidden = cfg_.rl.net.critic_hidden;
-    cc.activation = activation;
-    critic_ = rl::Critic<float>(cc, init);
-    popart_ = nn::PopArt<float>(K_, 1e-2);
-    actor_opt_ = nn::Adam<float>({cfg_.rl.ppo.actor_lr, 0.9, 0.999, 1e-8, 0.0, false, cfg_.rl.ppo.max_grad_norm});
-    critic_opt_ = nn::Adam<float>({cfg_.rl.ppo.critic_lr, 0.9, 0.999, 1e-8, 0.0, false, cfg_.rl.ppo.max_grad_norm});
+    learner_ = Stage2Learner<Policy>(critic_dim(), K_, cfg_.rl, activation, init);
     const Index W = task_.amp_dim();
     discs_ = RewardDiscriminators(setup_.discriminators, W, cfg_.rl, activation, setup_.negative_fraction, init);
     rl::RolloutSpec spec;
@@ -185,7 +175,7 @@ class ResidualTrainer {
     compute_rewards(st);  // (the tracking task's reward terms are timed with the discriminators')
     st.time_disc += disc_rewards.seconds();
     rl::compute_gae(buf_, rl::GaeParams{cfg_.rl.ppo.gamma, cfg_.rl.ppo.gae_lambda});
-    update_policy(st);
+    learner_.update(policy_, buf_, weights_, cfg_.rl.ppo, rng_, st);  // 3. PPO on the residual
     Stopwatch disc_update;
     discs_.update(buf_.amp_windows, buf_.masks, rng_, st);
     st.time_disc += disc_update.seconds();
@@ -202,10 +192,7 @@ class ResidualTrainer {
     c.put_string("residual_config", to_json(cfg_).dump());
     c.put_string("config", to_json(cfg_.rl).dump());
     policy_.save(c, true);
-    c.put("critic/params", critic_.net.params());
-    save_norm(c, "critic/norm", critic_.normalizer);
-    c.put("popart/mean", popart_.mean());
-    c.put("popart/nu", popart_.second_moment());
+    learner_.save(c);
     discs_.save(c);
     c.put_int("trainer/iteration", iteration_);
     c.put_int("trainer/samples", samples_);
@@ -221,9 +208,7 @@ class ResidualTrainer {
   /// counters; training then continues from fresh optimiser and RNG states.
   void load(const Checkpoint& c) {
     policy_.load(c, true);
-    c.copy_to<float>("critic/params", critic_.net.params());
-    load_norm(c, "critic/norm", critic_.normalizer);
-    popart_.set_state(c.get_vector<double>("popart/mean", K_), c.get_vector<double>("popart/nu", K_));
+    learner_.load(c);
     discs_.load(c);
     iteration_ = c.get_int("trainer/iteration");
     samples_ = c.get_int("trainer/samples");
@@ -234,12 +219,7 @@ class ResidualTrainer {
   // ---- checkpoint: optimiser, RNG, task and tracking state ---------------------------------
   void save_training_state(Checkpoint& c) const {
     auto& self = const_cast<ResidualTrainer&>(*this);  // block accessors are non-const only; nothing changes
-    const auto blocks = self.policy_.trainable_blocks();
-    for (std::size_t i = 0; i < blocks.size(); ++i) c.put("state/actor/" + std::to_string(i), blocks[i]->storage());
-    c.put("state/critic", critic_.net.block().storage());
-    c.put_int("state/actor_steps", actor_opt_.step_count());
-    c.put_double("state/actor_lr", actor_opt_.config().lr);
-    c.put_int("state/critic_steps", critic_opt_.step_count());
+    learner_.save_state(c, self.policy_.trainable_blocks());
     discs_.save_state(c);
     c.put_rng("state/rng", rng_);
     const Index N = task_.num_envs();
@@ -254,16 +234,7 @@ class ResidualTrainer {
   }
 
   void load_training_state(const Checkpoint& c) {
-    const auto blocks = policy_.trainable_blocks();
-    for (std::size_t i = 0; i < blocks.size(); ++i) c.copy_to<float>("state/actor/" + std::to_string(i), blocks[i]->storage());
-    c.copy_to<float>("state/critic", critic_.net.block().storage());
-    actor_opt_.set_step_count(c.get_int("state/actor_steps"));
-    if (c.contains("state/actor_lr")) {  // (checkpoints before stage 2's adaptive schedule: the config's rate)
-      const double lr = c.get_double("state/actor_lr");
-      require(std::isfinite(lr) && lr >= 0, "actor learning rate must be finite and >= 0", {c.source(), std::nullopt, "state/actor_lr"});
-      actor_opt_.config().lr = lr;
-    }
-    critic_opt_.set_step_count(c.get_int("state/critic_steps"));
+    learner_.load_state(c, policy_.trainable_blocks());
     discs_.load_state(c);
     rng_.set_state(c.get_rng("state/rng"));
     const Index N = task_.num_envs();
@@ -303,78 +274,58 @@ class ResidualTrainer {
     if (G > 0) out.bottomRows(G) = goals;
   }
 
-  void values(const MatrixXf& cin, MatrixXf& v) {
-    MatrixXf vn(K_, cin.cols());
-    critic_.value(cin, vn, critic_ws_, scratch_);
-    v.resize(K_, cin.cols());
-    popart_.denormalize(vn, v);
-  }
-
   // ---- 1. collection ----------------------------------------------------------------------
   void collect(IterationStats& st) {
-    const Index N = task_.num_envs(), H = cfg_.rl.ppo.horizon;
     goal_rewards_.setZero(buf_.size());
+    Collector agent(*this);
+    collect_rollout(task_, buf_, agent, st);
+  }
+  /// The policy on the frozen base as the collection loop's agent (train/collect.hpp): input
+  /// [s ; a_base(s̄, m) ; m ; g], critic [s ; m ; g]; the goal task rewards every step and may end
+  /// an episode; masks change at episode ends (or switch mid-episode).
+  struct Collector {
+    explicit Collector(ResidualTrainer& trainer) : t(trainer) {}
+    ResidualTrainer& t;
+    std::vector<PartMask> masks;  ///< of the step being collected (the critic's final values use them)
     MatrixXf goals, x, cin, v;
-    for (Index t = 0; t < H; ++t) {
-      Stopwatch inf;
-      const Index c0 = buf_.step_begin(t);
-      const std::vector<PartMask> masks = masks_.masks();
-      current_goals(goals);
-      policy_.build_input(part_elements_, task_.observations(), masks, goals, x, ws_);
-      critic_input(task_.observations(), masks, goals, cin);
-      policy_.residual().normalizer.update(x);
-      critic_.normalizer.update(cin);
-      policy_.act(x, masks, rng_, actions_, logp_, mu_, ws_);
-      values(cin, v);
-      buf_.record_policy_step(t, cin, x, masks, actions_, logp_, v);
-      st.time_inference += inf.seconds();
-
-      Stopwatch sim;
+    const MatrixXf& act(Index step, Index /*c0*/) {
+      masks = t.masks_.masks();
+      t.current_goals(goals);
+      t.policy_.build_input(t.part_elements_, t.task_.observations(), masks, goals, x, t.ws_);
+      t.critic_input(t.task_.observations(), masks, goals, cin);
+      t.policy_.residual().normalizer.update(x);
+      t.learner_.critic().normalizer.update(cin);
+      t.policy_.act(x, masks, t.rng_, t.actions_, t.logp_, t.mu_, t.ws_);
+      t.learner_.values(cin, v);
+      t.buf_.record_policy_step(step, cin, x, masks, t.actions_, t.logp_, v);
       // The task's action space is the identity: â becomes PD targets here, through the base's
       // action space held by the policy (so a loaded checkpoint brings its own mapping along).
-      if (policy_.actions().identity()) {
-        task_.step(actions_);
-      } else {
-        policy_.to_targets(actions_, targets_);
-        task_.step(targets_);
-      }
-      st.time_sim += sim.seconds();
-
-      Stopwatch inf2;
-      buf_.amp_windows.middleCols(c0, N) = task_.amp_windows();
-      bool any_truncated = false;
-      for (Index e = 0; e < N; ++e) {
-        const auto ue = static_cast<std::size_t>(e);
-        bool term = task_.terminated()[ue] != 0;
-        bool trunc = task_.truncated()[ue] != 0;
-        if (setup_.goal) {  // (its reward; it may end the episode; a new episode gets a new goal)
-          const tasks::GoalOutcome g = tasks::advance_goal(setup_.goal, task_, e);
-          goal_rewards_(0, c0 + e) = g.reward;
-          term = g.terminated;
-          trunc = g.truncated;
-          goal_terminations_ += g.by_goal_task ? 1 : 0;
-        }
-        buf_.terminated[static_cast<std::size_t>(c0 + e)] = term ? 1 : 0;
-        buf_.truncated[static_cast<std::size_t>(c0 + e)] = (!term && trunc) ? 1 : 0;
-        any_truncated |= (!term && trunc);
-        if (term || trunc) {
-          masks_.new_episode(e);
-        } else {
-          masks_.maybe_switch(e);
-        }
-      }
-      if (any_truncated) {
-        critic_input(task_.final_observations(), masks, goals, cin);
-        values(cin, v);
-        buf_.final_values.middleCols(c0, N) = v;
-      }
-      st.time_inference += inf2.seconds();
+      if (t.policy_.actions().identity()) return t.actions_;
+      t.policy_.to_targets(t.actions_, t.targets_);
+      return t.targets_;
     }
-    current_goals(goals);
-    critic_input(task_.observations(), masks_.masks(), goals, cin);
-    values(cin, v);
-    buf_.bootstrap_values = v;
-  }
+    void end_step(Index e, Index column, StepEnd& end) {
+      if (t.setup_.goal) {  // (its reward; it may end the episode; a new episode gets a new goal)
+        const tasks::GoalOutcome g = tasks::advance_goal(t.setup_.goal, t.task_, e);
+        t.goal_rewards_(0, column) = g.reward;
+        end = {g.terminated, g.truncated};
+        t.goal_terminations_ += g.by_goal_task ? 1 : 0;
+      }
+      if (end.terminated || end.truncated) t.masks_.new_episode(e);
+      else t.masks_.maybe_switch(e);
+    }
+    const MatrixXf& final_values(const MatrixXf& final_obs) {
+      t.critic_input(final_obs, masks, goals, cin);
+      t.learner_.values(cin, v);
+      return v;
+    }
+    const MatrixXf& bootstrap_values() {
+      t.current_goals(goals);
+      t.critic_input(t.task_.observations(), t.masks_.masks(), goals, cin);
+      t.learner_.values(cin, v);
+      return v;
+    }
+  };
 
   // ---- 2. rewards -------------------------------------------------------------------------
   void compute_rewards(IterationStats& st) {
@@ -386,86 +337,6 @@ class ResidualTrainer {
     }
   }
 
-  // ---- 3. PPO on the residual -------------------------------------------------------------
-  void update_policy(IterationStats& st) {
-    MatrixXf adv_k = buf_.advantages;
-    rl::normalize_rows(adv_k);
-    RowVectorXf adv = RowVectorXf::Zero(buf_.size());
-    for (Index k = 0; k < K_; ++k) adv += static_cast<float>(weights_[static_cast<std::size_t>(k)]) * adv_k.row(k);
-    // PopArt: rescale the critic's last layer to the new return statistics, then regress the
-    // normalised returns.
-    popart_.update(buf_.returns, critic_.net);
-    MatrixXf ret_n(K_, buf_.size());
-    popart_.normalize(buf_.returns, ret_n);
-    const Index n = buf_.size();
-    const Index nmb = std::max<Index>(1, std::min<Index>(n, n / std::max<Index>(1, cfg_.rl.ppo.minibatch_size)));
-    double sum_pl = 0, sum_vl = 0, sum_kl = 0, sum_cf = 0, sum_gn = 0;
-    int count = 0;
-    MatrixXf x, act, cin, norm_cin, dmu, dv, target, vold;
-    RowVectorXf lp_old, a_mb, lp_new, dlogp;
-    std::vector<PartMask> ms;
-    for (int epoch = 0; epoch < cfg_.rl.ppo.epochs; ++epoch) {
-      for (const auto& idx : rl::minibatch_indices(n, nmb, rng_)) {
-        rl::gather_columns(buf_.policy_input, idx, x);
-        rl::gather_columns(buf_.actions, idx, act);
-        rl::gather_columns(buf_.obs, idx, cin);
-        rl::gather_columns(ret_n, idx, target);
-        const Index B = static_cast<Index>(idx.size());
-        ms.resize(static_cast<std::size_t>(B));
-        lp_old.resize(B);
-        a_mb.resize(B);
-        for (Index j = 0; j < B; ++j) {
-          const Index c = idx[static_cast<std::size_t>(j)];
-          lp_old[j] = buf_.log_probs[c];
-          a_mb[j] = adv[c];
-          ms[static_cast<std::size_t>(j)] = buf_.masks[static_cast<std::size_t>(c)];
-        }
-        policy_.zero_grad();
-        const MatrixXf& mu = policy_.forward_train(x, ms, cache_);
-        policy_.log_prob(cache_, act, lp_new);
-        const auto sur = rl::clipped_surrogate<float>(lp_new, lp_old, a_mb, cfg_.rl.ppo.clip, dlogp);
-        Policy::log_prob_mean_grad(cache_, act, dlogp, dmu);
-        // action-bound penalty on the PD targets beyond ±π rad, as in stage 1 (target = offset +
-        // scale ⊙ μ̂, so ∂/∂μ̂ carries a factor scale; the identity's target is μ̂ itself)
-        const float bound = static_cast<float>(M_PI), wb = static_cast<float>(cfg_.rl.ppo.action_bound_weight);
-        const tasks::ActionSpace& space = policy_.actions();
-        if (space.identity()) {
-          dmu.array() += wb / static_cast<float>(B) * ((mu.array() - bound).max(0.0f) + (mu.array() + bound).min(0.0f)) * 2.0f;
-        } else {
-          space.add_bound_penalty_grad(mu, bound, wb / static_cast<float>(B), bound_targets_, dmu);
-        }
-        policy_.backward(cache_, dmu);
-        const auto ar = actor_opt_.step(policy_.trainable_blocks());
-        if (!ar.applied) ++st.skipped_updates;
-        if (cfg_.rl.ppo.actor_lr_schedule == "adaptive")  // next minibatch's step sized by this one's KL (as stage 1)
-          actor_opt_.config().lr = rl::adapt_learning_rate(actor_opt_.config().lr, sur.approx_kl, cfg_.rl.ppo.adaptive_lr);
-        critic_.net.zero_grad();
-        critic_.normalize(cin, norm_cin);
-        const MatrixXf& v = critic_.net.forward_train(norm_cin, critic_cache_);
-        vold = v;
-        const double vl = rl::value_loss<float>(v, vold, target, 0.0, dv);
-        dv *= static_cast<float>(cfg_.rl.ppo.critic_weight);
-        critic_.net.backward(critic_cache_, dv, critic_.net.grads());
-        const auto cr = critic_opt_.step(critic_.net.block());
-        if (!cr.applied) ++st.skipped_updates;
-        sum_pl += sur.loss;
-        sum_vl += vl;
-        sum_kl += sur.approx_kl;
-        sum_cf += sur.clip_frac;
-        sum_gn += ar.grad_norm;
-        ++count;
-      }
-    }
-    st.policy_loss = sum_pl / count;
-    st.value_loss = sum_vl / count;
-    st.approx_kl = sum_kl / count;
-    st.clip_frac = sum_cf / count;
-    st.grad_norm = sum_gn / count;
-    st.entropy = nn::gaussian_entropy<float>(Eigen::Map<const MatrixXf>(policy_.residual().log_std.params().data(),
-                                                                         policy_.action_dim(), 1))(0);
-    st.actor_lr = actor_opt_.config().lr;  // moves under ppo.actor_lr_schedule = adaptive
-  }
-
   ResidualTrainConfig cfg_;
   ResidualSetup<Sim> setup_;
   tasks::ImitationTask<Sim> task_;
@@ -473,12 +344,10 @@ class ResidualTrainer {
   Rng rng_;
   tasks::EpisodeMasks masks_;
   Policy policy_;
-  rl::Critic<float> critic_;
-  nn::PopArt<float> popart_;
+  Stage2Learner<Policy> learner_;  ///< critic, PopArt, Adam, the PPO step
   RewardDiscriminators discs_;
   std::vector<double> weights_;
   Index K_ = 1;
-  nn::Adam<float> actor_opt_, critic_opt_;
   rl::RolloutBuffer<float> buf_;
   long long iteration_ = 0, samples_ = 0;
   double last_goal_reward_ = NAN;
@@ -486,11 +355,8 @@ class ResidualTrainer {
   RowVectorXf goal_rewards_;
   // workspaces
   typename Stage2Types<Policy>::Workspace ws_;
-  typename Stage2Types<Policy>::Cache cache_;
-  nn::InferenceWorkspace<float> critic_ws_;
-  nn::TrainCache<float> critic_cache_;
-  MatrixXf actions_, mu_, scratch_;
-  MatrixXf targets_, bound_targets_;  ///< PD targets of a non-identity action space (collection, bound penalty)
+  MatrixXf actions_, mu_;
+  MatrixXf targets_;  ///< PD targets of a non-identity action space
   RowVectorXf logp_;
 };
 

@@ -146,14 +146,14 @@ class RewardDiscriminators {
     for (std::size_t k = 0; k < set_.members.size(); ++k) {
       const std::string p = "disc/" + std::to_string(k);
       c.put(p + "/params", set_.members[k].net().params());
-      save_norm(c, p + "/norm", set_.members[k].normalizer());
+      save_normalizer(set_.members[k].normalizer(), p + "/norm", c);
     }
   }
   void load(const Checkpoint& c) {
     for (std::size_t k = 0; k < set_.members.size(); ++k) {
       const std::string p = "disc/" + std::to_string(k);
       c.copy_to<float>(p + "/params", set_.members[k].net().params());
-      load_norm(c, p + "/norm", set_.members[k].normalizer());
+      load_normalizer(c, p + "/norm", set_.members[k].normalizer());
     }
   }
   /// Optimiser moments, step counts and replay buffers: state/disc/<k>/…
