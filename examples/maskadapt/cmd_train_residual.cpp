@@ -30,6 +30,7 @@
 #endif
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -46,7 +47,7 @@ struct Args {
   std::string task = "composition", method = "ours", base, out = "runs/residual", preset, config, resume, generator,
               gain = "scalar";
   std::vector<std::string> new_motion, masks, motions, texts;
-  std::string designated = "arms";
+  std::string designated = "arms", goal_parts;
   // Numeric values were range-checked while parsing (cli_checks.hpp); −1 means "not given".
   int envs = -1, threads = -1, goal_trajectories = -1, sample_every = -1;
   long long iterations = -1, seed = -1;
@@ -136,8 +137,8 @@ ResidualSetup<Sim> make_setup(const ResidualTrainConfig& c, const std::shared_pt
     return [lib](Rng& r, Index B, MatrixXf& w, MatrixXf&) { w = lib->sample_amp_windows(r, static_cast<int>(B)); };
   };
   const std::vector<double> w = c.objective_weights;
-  // a goal on the base's own motion (AdaptNet always: it adapts the base, it adds no motion): imitate A
-  if (is_goal_task(c.task) && (c.new_motions.empty() || c.method == "adaptnet")) {
+  // a goal on the base's own motion: imitate A
+  if (is_goal_task(c.task) && c.new_motions.empty()) {
     s.masks = {c.method == "scratch" ? PartMask::all() : s.masks.front()};
     s.switch_rate = 0;
     s.discriminators.push_back({"imitation", w.size() > 0 ? w[0] : 0.5, {}, false, from(base_lib), {}});
@@ -156,7 +157,8 @@ ResidualSetup<Sim> make_setup(const ResidualTrainConfig& c, const std::shared_pt
                             [set](Rng& r, Index B, MatrixXf& x, MatrixXf& m) { set->sample_real(r, B, x, m); },
                             [set](Rng& r, Index B, MatrixXf& x, MatrixXf& m) { set->sample_negative(r, B, x, m); }};
     s.discriminators.push_back(src);
-  } else {  // cml / scratch: fixed region = the first mask; one discriminator per group
+  } else {  // cml / scratch / adaptnet: fixed region = the first mask; one discriminator per group
+    // (AdaptNet acts on every DoF and sees no mask: it gets the same part-wise rewards as cml)
     const PartMask adapted = s.masks.front();
     s.masks = {c.method == "scratch" ? PartMask::all() : adapted};
     s.switch_rate = 0;
@@ -211,6 +213,9 @@ void run_train_residual(const Args& a) {
     c.gain = a.gain;
     c.designated = a.designated;
     c.generator = a.generator;
+    c.goal_parts = a.goal_parts;
+    require(a.goal_parts.empty() || is_goal_task(c.task),
+            "applies to the goal tasks (location, heading, strike) only, and this run's task is " + c.task, {{}, {}, "--goal-parts"});
     if (!a.new_motion.empty()) c.new_motions = a.new_motion;
     if (!a.masks.empty()) c.masks = a.masks;
     if (a.envs > 0) c.rl.env.num_envs = a.envs;
@@ -284,6 +289,7 @@ void run_train_residual(const Args& a) {
   }
   std::cout << "train-residual: task " << c.task << ", method " << c.method << ", masks";
   for (const auto& m : setup.masks) std::cout << " " << m.to_string();
+  if (!c.goal_parts.empty()) std::cout << " (and for the goal " << PartMask::parse(c.goal_parts).to_string() << ")";
   std::cout << ", " << setup.discriminators.size() << " discriminator(s), out " << c.rl.run.out_dir
             << ", BLAS kernel " << blas_core_name() << "\n";
   // the policy on the frozen base: the residual (ours, cml, scratch) or AdaptNet
@@ -300,7 +306,9 @@ void run_train_residual(const Args& a) {
     run_training(trainer, RunOptions{static_cast<bool>(resume), &std::cout, cli::stop_training_on_signals()});
     std::cout << "train-residual: done, " << trainer.iteration() << " iterations; checkpoint " << c.rl.run.out_dir
               << "/checkpoint.bin";
-    if (trainer.goal_task()) std::cout << "; last " << c.task << " reward " << trainer.last_goal_reward();
+    // (a resume that ran no iteration has no last reward to report)
+    if (trainer.goal_task() && std::isfinite(trainer.last_goal_reward()))
+      std::cout << "; last " << c.task << " reward " << trainer.last_goal_reward();
     std::cout << "\n";
   };
   if (c.method == "adaptnet") train.template operator()<adapt::AdaptNetPolicy<float>>();
@@ -340,11 +348,8 @@ void run_play(const PlayArgs& a, const std::string& command_line) {
   require(!a.bvh.empty() || !a.rollout.empty(), "nothing to write: give --bvh and/or --rollout", {{}, {}, "play-residual"});
   const Checkpoint ck = load_checkpoint(a.checkpoint);
   const ResidualTrainConfig c = residual_config_from_json(nlohmann::json::parse(ck.get_string("residual_config")), a.checkpoint);
-  require(c.method != "adaptnet", "play-residual does not play AdaptNet checkpoints yet (eval-residual evaluates them)",
-          {a.checkpoint, std::nullopt, "method"});
   MujocoHumanoidSim sim(1, 1, humanoid_description(), task_objects(c.task));  // (strike: with its box)
   const Skeleton& skel = sim.skeleton();
-  const adapt::ResidualPolicy<float> pol = residual_policy_from_checkpoint(ck, skel);
   const Index obs_dim = observation_dim(skel), A = skel.num_dofs();
   const PartMask designated = PartMask::parse(c.designated);
   const bool tracking_task = c.task == "tracking";
@@ -396,47 +401,54 @@ void run_play(const PlayArgs& a, const std::string& command_line) {
     roll.scene.emplace();
     if (c.task == "strike") roll.scene->objects.push_back({"strike_box", sim.objects().front().half_size, {}, {}});
   }
-  MatrixXf obs(obs_dim, 1), x, mu, targets_rad, goals(pol.goal_dim(), 1);
-  adapt::ResidualWorkspace<float> ws;
-  const PartElements pe(observation_parts(skel));
   double track_err = 0, goal_reward = 0;
-  PartMask last = PartMask::none();
-  for (Index t = 0; t < steps; ++t) {
-    const double time = static_cast<double>(t) * sim.control_dt();
-    const std::vector<PartMask> m{schedule.sample(rng, time)};
-    if (t == 0 || m[0] != last) std::cout << "play-residual: t=" << time << " s, adapted parts " << m[0].to_string() << "\n";
-    last = m[0];
-    compute_observation(skel, sim.body_states(0), obs.col(0));
-    if (tracking_task) tracking::extract_goals(skel, bodies, targets, t, c.goal_steps, goals.col(0));
-    if (goal) goal.goal(sim, 0, goals.col(0));
-    pol.build_input(pe, obs, m, goals, x, ws);
-    pol.mean(x, m, mu, ws);
-    pol.to_targets(mu, targets_rad);  // offset + scale ⊙ â (the base's action space)
-    sim.step(targets_rad);
-    const BodyStates& b = sim.body_states(0);
-    out.root_pos.col(static_cast<int>(t)) = b.pos.col(0);
-    out.set_rot(static_cast<int>(t), b.rot[0]);
-    out.q.col(static_cast<int>(t)) = sim.joint_angles(0);
-    eval::add_frame(roll, b, m[0], sim.contacts(0));
-    if (goal) {  // what the policy was asked this step, then the task's bookkeeping (a play never resets)
-      add_scene_frame(*roll.scene, goal, sim, b);
-      goal_reward += goal.after_step(sim, 0, false).reward;
-    }
-    if (tracking_task) {
-      track_err += tracking::position_error(bodies, targets, t + 1, b);
-      // the targets as the character should reach them: root-relative heading-frame positions
-      // placed at the simulated root (the generated root drifts from the simulated one)
-      Matrix3X g(3, static_cast<Index>(bodies.size()));
-      const Quat Hs = heading_rotation(b.rot[0]);
-      for (std::size_t j = 0; j < bodies.size(); ++j) {
-        const int bi = bodies[j];
-        g.col(static_cast<Index>(j)) = b.pos.col(0) + Hs * tracking::heading_local(targets.body_pos.block<3, 1>(3 * bi, t + 1),
-                                                                                   targets.root_pos.col(t + 1),
-                                                                                   targets.root_rot[static_cast<std::size_t>(t + 1)]);
+  // the policy on the frozen base: the residual (ours, cml, scratch) or AdaptNet (which runs every
+  // DoF and ignores the mask; the mask is still written into the rollout)
+  auto play = [&]<class Policy>() {
+    const auto pol = stage2_policy_from_checkpoint<Policy>(ck, skel);
+    MatrixXf obs(obs_dim, 1), x, mu, targets_rad, goals(pol.goal_dim(), 1);
+    typename Stage2Types<Policy>::Workspace ws;
+    const PartElements pe(observation_parts(skel));
+    PartMask last = PartMask::none();
+    for (Index t = 0; t < steps; ++t) {
+      const double time = static_cast<double>(t) * sim.control_dt();
+      const std::vector<PartMask> m{schedule.sample(rng, time)};
+      if (t == 0 || m[0] != last) std::cout << "play-residual: t=" << time << " s, adapted parts " << m[0].to_string() << "\n";
+      last = m[0];
+      compute_observation(skel, sim.body_states(0), obs.col(0));
+      if (tracking_task) tracking::extract_goals(skel, bodies, targets, t, c.goal_steps, goals.col(0));
+      if (goal) goal.goal(sim, 0, goals.col(0));
+      pol.build_input(pe, obs, m, goals, x, ws);
+      pol.mean(x, m, mu, ws);
+      pol.to_targets(mu, targets_rad);  // offset + scale ⊙ â (the base's action space)
+      sim.step(targets_rad);
+      const BodyStates& b = sim.body_states(0);
+      out.root_pos.col(static_cast<int>(t)) = b.pos.col(0);
+      out.set_rot(static_cast<int>(t), b.rot[0]);
+      out.q.col(static_cast<int>(t)) = sim.joint_angles(0);
+      eval::add_frame(roll, b, m[0], sim.contacts(0));
+      if (goal) {  // what the policy was asked this step, then the task's bookkeeping (a play never resets)
+        add_scene_frame(*roll.scene, goal, sim, b);
+        goal_reward += goal.after_step(sim, 0, false).reward;
       }
-      roll.goals->targets.push_back(g);
+      if (tracking_task) {
+        track_err += tracking::position_error(bodies, targets, t + 1, b);
+        // the targets as the character should reach them: root-relative heading-frame positions
+        // placed at the simulated root (the generated root drifts from the simulated one)
+        Matrix3X g(3, static_cast<Index>(bodies.size()));
+        const Quat Hs = heading_rotation(b.rot[0]);
+        for (std::size_t j = 0; j < bodies.size(); ++j) {
+          const int bi = bodies[j];
+          g.col(static_cast<Index>(j)) = b.pos.col(0) + Hs * tracking::heading_local(targets.body_pos.block<3, 1>(3 * bi, t + 1),
+                                                                                     targets.root_pos.col(t + 1),
+                                                                                     targets.root_rot[static_cast<std::size_t>(t + 1)]);
+        }
+        roll.goals->targets.push_back(g);
+      }
     }
-  }
+  };
+  if (c.method == "adaptnet") play.template operator()<adapt::AdaptNetPolicy<float>>();
+  else play.template operator()<adapt::ResidualPolicy<float>>();
   std::cout << "play-residual: " << steps << " steps, final root height " << sim.body_states(0).pos(2, 0) << " m";
   if (tracking_task) std::cout << ", mean tracking error " << track_err / static_cast<double>(steps) << " m";
   if (goal) std::cout << ", mean " << c.task << " reward " << goal_reward / static_cast<double>(steps) << ", trials ended "
@@ -608,6 +620,9 @@ const bool registered = maskadapt::cli::register_command([](CLI::App& app) {
   keep(c->add_option("--switch-rate", a->switch_rate, "mid-episode mask switches per second"))->check(non_negative_real());
   keep(c->add_option("--designated", a->designated, "tracking: parts that follow the generated trajectory"))
       ->check(training_mask);
+  keep(c->add_option("--goal-parts", a->goal_parts,
+                     "goal tasks: parts the residual also moves for the goal, visible to the base (e.g. lower_body)"))
+      ->check(mask_name);
   keep(c->add_option("--generator", a->generator, "tracking: generator checkpoint (train-generator output)"));
   keep(c->add_option("--texts", a->texts, "tracking: text pool"));
   keep(c->add_option("--gain", a->gain, "fixed | scalar | per_dof"))->check(one_of({"fixed", "scalar", "per_dof"}));

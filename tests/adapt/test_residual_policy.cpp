@@ -108,6 +108,44 @@ TEST(ResidualPolicy, ResidualMovesOnlyMaskedDofsAndNullMaskIsTheBase) {
   }
 }
 
+TEST(ResidualPolicy, GoalPartsMoveBesideTheMaskWhileTheBaseStillSeesThem) {
+  // goal parts (the legs, to walk to a target) are moved on every sample, masked or not, and stay
+  // out of the base's hidden parts and the input's mask bits
+  Rng rng(3), r1(5), r2(5);
+  const rl::GaussianActor<float> base = make_base(rng);
+  adapt::ResidualConfig rc;
+  rc.hidden = {16};
+  rc.gain = adapt::GainMode::PerDof;
+  adapt::ResidualPolicy<float> plain(base, kObs, dof_parts(), rc, r1);  // the same base and draws, no goal parts
+  rc.goal_parts = PartMask::of(BodyPart::LeftLeg);
+  adapt::ResidualPolicy<float> pol(base, kObs, dof_parts(), rc, r2);
+  pol.residual().mean_net.params().setRandom();
+  plain.residual().mean_net.params() = pol.residual().mean_net.params();
+  pol.gain().params().setConstant(1.7f);
+  plain.gain().params().setConstant(1.7f);
+  const PartElements pe(obs_parts());
+  const MatrixXf obs = MatrixXf::Random(kObs, 2);
+  const std::vector<PartMask> masks = {PartMask::none(), PartMask::of(BodyPart::LeftArm)};
+  adapt::ResidualWorkspace<float> ws, ws2;
+  MatrixXf x, x_plain, mu, mu_plain;
+  pol.build_input(pe, obs, masks, MatrixXf(), x, ws);
+  plain.build_input(pe, obs, masks, MatrixXf(), x_plain, ws2);
+  EXPECT_TRUE((x.array() == x_plain.array()).all());  // the base's input and the mask bits are the mask's alone
+  pol.mean(x, masks, mu, ws);
+  plain.mean(x_plain, masks, mu_plain, ws2);
+  const MatrixXf base_mu = x.middleRows(kObs, kAct);
+  for (Index i = 0; i < kAct; ++i) {
+    const bool leg = i >= 6, arm = i >= 3 && i < 6;
+    // null mask: only the legs move; left arm masked: arms and legs
+    EXPECT_EQ(mu(i, 0) != base_mu(i, 0), leg) << i;
+    EXPECT_EQ(mu(i, 1) != base_mu(i, 1), leg || arm) << i;
+    // where both policies move a DoF they agree (same residual, same input)
+    if (arm) {
+      EXPECT_EQ(mu(i, 1), mu_plain(i, 1)) << i;
+    }
+  }
+}
+
 TEST(ResidualPolicy, GradientsMatchFiniteDifferences) {
   for (auto mode : {adapt::GainMode::Scalar, adapt::GainMode::PerDof}) {
     auto pol = make_policy(mode, 0, nn::Activation::Tanh);  // smooth, so central differences apply

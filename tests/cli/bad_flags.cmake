@@ -142,6 +142,7 @@ bad(--preset - ${R} --preset cpu --config ${OUT}/none.json)
 bad(--masks none ${R} --masks none)
 bad(--masks elbows ${R} --masks lower_body elbows)
 bad(--designated tail ${R} --task tracking --designated tail)
+bad(--goal-parts tail ${R} --task location --goal-parts tail)
 # with --resume the run's own config decides these: giving one is an error, not a no-op
 bad(--envs - train-residual --resume ${MISSING} --envs 4)
 bad(--task - train-residual --resume ${MISSING} --task tracking)
@@ -153,6 +154,9 @@ if(HAS_MUJOCO)
   # AdaptNet adapts the base to a goal task only; a goal task refuses the tracking flags
   bad(--method - train-residual --method adaptnet --task composition --new-motion kick --iterations 1 --out ${OUT}/never)
   bad(--generator - train-residual --method scratch --task location --generator x.ckpt --iterations 1 --out ${OUT}/never)
+  # goal parts are a goal task's
+  bad(--goal-parts - train-residual --method scratch --task composition --new-motion kick --goal-parts lower_body
+      --iterations 1 --out ${OUT}/never)
 endif()
 
 # ---- play / play-residual ------------------------------------------------------------------------

@@ -111,13 +111,13 @@ run("play-residual (normalised base)" play-residual ${OUT}/comp_norm/checkpoint.
 run("eval-residual (normalised base)" eval-residual ${OUT}/comp_norm/checkpoint.bin --envs 2 --frames 10 --out ${OUT}/eval_norm.json)
 require_json(${OUT}/eval_norm.json)
 
-# Goal tasks: one iteration each (location and heading on the base motion, strike with the box and
-# a composed kick), a strike resume (the box's state travels in the checkpoint), and eval-residual's
-# success rate over a few trials.
+# Goal tasks: one iteration each (location and heading on the base motion, strike with the box, a
+# composed kick on the arms and the legs moved for the goal), a strike resume (the box's state
+# travels in the checkpoint), and eval-residual's success rate over a few trials.
 foreach(task location heading strike)
   set(extra)
   if(task STREQUAL "strike")
-    set(extra --new-motion kick --masks lower_body)
+    set(extra --new-motion kick --masks arms --goal-parts lower_body)
   endif()
   run("train-residual ${task}" train-residual --task ${task} --base ${BASE} ${extra} --iterations 1 ${tiny} --out ${OUT}/goal_${task})
   file(STRINGS ${OUT}/goal_${task}/log.jsonl lines)
@@ -155,5 +155,13 @@ run("train-residual adaptnet" train-residual --task heading --method adaptnet --
     --out ${OUT}/goal_adaptnet)
 run("eval-residual adaptnet" eval-residual ${OUT}/goal_adaptnet/checkpoint.bin --envs 2 --trials 2 --out ${OUT}/eval_adaptnet.json)
 require_json(${OUT}/eval_adaptnet.json)
+# ... and plays: the heading arrow in every frame of its rollout
+run("play-residual adaptnet" play-residual ${OUT}/goal_adaptnet/checkpoint.bin --seconds 1 --rollout ${OUT}/play_adaptnet.json)
+require_json(${OUT}/play_adaptnet.json)
+file(READ ${OUT}/play_adaptnet.json j)
+string(JSON n LENGTH "${j}" scene arrows)
+if(NOT n EQUAL 30)
+  message(FATAL_ERROR "play_adaptnet.json: ${n} heading arrows, expected 30")
+endif()
 
-message(STATUS "stage-2 CLI smoke OK: composition ours/cml + resume, tracking, play (mask/text), eval (H_norm adapted ${h}, success ${sr})")
+message(STATUS "stage-2 CLI smoke OK: composition ours/cml + resume, tracking, play (mask/text), eval (H_norm adapted ${h}, success ${sr}; AdaptNet trains, evaluates and plays)")

@@ -81,6 +81,10 @@ struct ResidualConfig {
   /// the adapted parts). false: it sees the full [s ; 0] (null mask) — the CML-style baseline,
   /// whose base reacts to the adapted parts' state.
   bool masked_base_input = true;
+  /// Parts the residual moves besides the mask's, on every sample (goal tasks: the legs, to walk
+  /// to a target while the arms compose a new motion). They stay visible to the base and are not
+  /// part of the mask the base, the discriminators and the input's mask bits see.
+  PartMask goal_parts = PartMask::none();
 };
 
 /// DoF selector M_m (action_dim × 1): 1 on DoFs whose part is in m.
@@ -356,7 +360,10 @@ class ResidualPolicy {
     const Index A = action_dim(), B = static_cast<Index>(masks.size());
     sel.resize(A, B);
     for (Index j = 0; j < B; ++j)
-      for (Index i = 0; i < A; ++i) sel(i, j) = masks[static_cast<std::size_t>(j)].has(dof_parts_[static_cast<std::size_t>(i)]) ? T(1) : T(0);
+      for (Index i = 0; i < A; ++i) {
+        const PartMask moved = masks[static_cast<std::size_t>(j)] | cfg_.goal_parts;
+        sel(i, j) = moved.has(dof_parts_[static_cast<std::size_t>(i)]) ? T(1) : T(0);
+      }
   }
 
   /// μ̂ = μ_base on unmasked rows, w ⊙ μ_base + μ_ψ on masked rows (exact when w = 1, μ_ψ = 0).

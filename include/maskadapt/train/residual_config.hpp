@@ -40,6 +40,8 @@ struct ResidualTrainConfig {
   double init_gain = 1.0;
   // tracking
   std::string designated = "arms";    ///< parts that follow the generated trajectory
+  // goal tasks
+  std::string goal_parts;             ///< parts the residual also moves for the goal ("" none; adapt::ResidualConfig::goal_parts)
   Index goal_steps = 2;               ///< next target frames in the goal
   int sample_every = 20;              ///< refill the goal buffer every N iterations
   int goal_trajectories = 16;         ///< trajectories per refill
@@ -61,6 +63,11 @@ struct ResidualTrainConfig {
     require(negative_fraction >= 0 && negative_fraction < 1, "must be in [0, 1)", {{}, {}, "negative_fraction"});
     require(goal_steps >= 1 && sample_every >= 1 && goal_trajectories >= 1, "tracking counts must be ≥ 1", {{}, {}, "tracking"});
     require(term_window_s > 0, "must be > 0", {{}, {}, "term_window_s"});
+    if (!goal_parts.empty()) {
+      (void)PartMask::parse(goal_parts, "goal_parts");
+      require(task == "location" || task == "heading" || task == "strike",
+              "goal parts are for the goal tasks (location, heading, strike), not " + task, {{}, {}, "goal_parts"});
+    }
     (void)adapt::gain_mode_from_name(gain);
   }
 };
@@ -78,6 +85,7 @@ inline nlohmann::json to_json(const ResidualTrainConfig& c) {
           {"gain", c.gain},
           {"init_gain", c.init_gain},
           {"designated", c.designated},
+          {"goal_parts", c.goal_parts},
           {"goal_steps", c.goal_steps},
           {"sample_every", c.sample_every},
           {"goal_trajectories", c.goal_trajectories},
@@ -102,6 +110,7 @@ inline ResidualTrainConfig residual_config_from_json(const nlohmann::json& j, co
     c.gain = j.at("gain");
     c.init_gain = j.at("init_gain");
     c.designated = j.at("designated");
+    c.goal_parts = j.value("goal_parts", std::string());  // (absent before goal parts existed: none)
     c.goal_steps = j.at("goal_steps");
     c.sample_every = j.at("sample_every");
     c.goal_trajectories = j.at("goal_trajectories");
@@ -123,16 +132,6 @@ inline nn::Activation residual_activation(const std::string& name) {
   if (name == "silu") return nn::Activation::SiLU;
   if (name == "tanh") return nn::Activation::Tanh;
   throw Error("unknown activation '" + name + "'", {{}, std::nullopt, "net.activation"});
-}
-
-inline void save_norm(Checkpoint& c, const std::string& name, const nn::RunningNormalizer<float>& n) {
-  c.put_double(name + "/count", n.count());
-  c.put(name + "/mean", n.mean());
-  c.put(name + "/m2", n.m2());
-}
-inline void load_norm(const Checkpoint& c, const std::string& name, nn::RunningNormalizer<float>& n) {
-  n.set_state(c.get_double(name + "/count"), c.get_vector<double>(name + "/mean", n.dim()),
-              c.get_vector<double>(name + "/m2", n.dim()));
 }
 
 /// A frozen stage-1 actor and how its actions become PD targets.
@@ -158,7 +157,7 @@ inline FrozenBase load_base_actor(const Checkpoint& ck, Index obs_dim, Index act
   FrozenBase out{rl::GaussianActor<float>(ac, dummy), {}};
   ck.copy_to<float>("actor/params", out.actor.mean_net.params());
   ck.copy_to<float>("actor/log_std", out.actor.log_std.params());
-  load_norm(ck, "actor/norm", out.actor.normalizer);
+  load_normalizer(ck, "actor/norm", out.actor.normalizer);
   load_hidden_groups(ck, out.actor);  // (a base trained with mask.hidden_value = mean)
   if (ck.contains("actor/action_offset")) out.actions.offset = ck.get_vector<float>("actor/action_offset", action_dim);
   if (ck.contains("actor/action_scale")) out.actions.scale = ck.get_vector<float>("actor/action_scale", action_dim);
@@ -186,6 +185,7 @@ inline adapt::ResidualConfig residual_net_config(const ResidualTrainConfig& c, c
   rc.init_gain = c.init_gain;
   rc.masked_base_input = !(c.task == "tracking" && c.method == "cml");
   rc.goal_dim = task_goal_dim(c, skel);
+  rc.goal_parts = c.goal_parts.empty() ? PartMask::none() : PartMask::parse(c.goal_parts, "goal_parts");
   return rc;
 }
 
