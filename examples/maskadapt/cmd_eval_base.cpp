@@ -50,7 +50,7 @@ void run_eval_base(const EvalBaseArgs& a) {
   MujocoHumanoidSim sim(static_cast<std::size_t>(a.envs), pool);
   const Index d = observation_dim(sim.skeleton());
   const LoadedBasePolicy loaded =
-      load_base_policy(ck, {d, d + kNumParts, sim.skeleton().num_dofs(), d * tasks::kAmpWindowFrames}, a.checkpoint);
+      load_base_policy(ck, {d, d + kNumParts, sim.skeleton().num_dofs(), d * kAmpWindowFrames}, a.checkpoint);
   const auto motions = a.motions.empty() ? loaded.config.env.motions : a.motions;
   auto lib = load_motion_library(motions, motion_data_dir(MASKADAPT_SOURCE_DIR "/../shared/data"));
   const MatrixXf reference = reference_visitation_features(*lib);

@@ -44,7 +44,7 @@ void run_play(const PlayArgs& a) {
   const Checkpoint ck = load_checkpoint(a.checkpoint);
   MujocoHumanoidSim sim(1);
   const PolicyDims dims{observation_dim(sim.skeleton()), observation_dim(sim.skeleton()) + kNumParts,
-                        sim.skeleton().num_dofs(), observation_dim(sim.skeleton()) * tasks::kAmpWindowFrames};
+                        sim.skeleton().num_dofs(), observation_dim(sim.skeleton()) * kAmpWindowFrames};
   const LoadedBasePolicy loaded = load_base_policy(ck, dims, a.checkpoint);
   const auto motions = a.motions.empty() ? loaded.config.env.motions : a.motions;
   auto lib = load_motion_library(motions, motion_data_dir(MASKADAPT_SOURCE_DIR "/../shared/data"));

@@ -4,6 +4,7 @@
 // that was replaced, truncated or written by an incompatible format.
 #include <maskadapt/humanoid/observation.hpp>
 #include <maskadapt/mask/apply.hpp>
+#include <maskadapt/motion/amp_window.hpp>
 #include <maskadapt/train/base_policy.hpp>
 #include <maskadapt/train/policy_export.hpp>
 
@@ -28,7 +29,7 @@ TEST(ShippedModels, AmpWalkBandaiLoadsWithItsDimsAndProvenance) {
   EXPECT_EQ(p.export_git_commit.size(), 7u);
 
   const LoadedBasePolicy base =
-      load_base_policy(c, {kObservationDim, policy_input_dim(kObservationDim), 63, kObservationDim * rl::kAmpWindowFrames}, path);
+      load_base_policy(c, {kObservationDim, policy_input_dim(kObservationDim), 63, kObservationDim * kAmpWindowFrames}, path);
   EXPECT_TRUE(base.policy_only);
   EXPECT_EQ(base.config.env.motions, std::vector<std::string>{"bandai-walk"});
   EXPECT_EQ(base.config.net.action_offset, "mean_pose");
@@ -56,7 +57,7 @@ TEST(ShippedModels, MaskMiWalkBandaiLoadsWithItsDimsAndProvenance) {
   const ExportProvenance p = export_provenance(c);
   EXPECT_NE(p.note.find("lambda_MI 0.3"), std::string::npos) << p.note;
   const LoadedBasePolicy base =
-      load_base_policy(c, {kObservationDim, policy_input_dim(kObservationDim), 63, kObservationDim * rl::kAmpWindowFrames}, path);
+      load_base_policy(c, {kObservationDim, policy_input_dim(kObservationDim), 63, kObservationDim * kAmpWindowFrames}, path);
   EXPECT_TRUE(base.config.mask.enabled);
   EXPECT_EQ(base.config.mask.lambda_mi, 0.3);
   EXPECT_EQ(base.config.mask.mi_gradient, "target_ema");
@@ -102,7 +103,7 @@ TEST(ShippedModels, Table1BasesLoadAsTheVariantsTheyClaimToBe) {
     EXPECT_EQ(c.get_int("trainer/samples"), 8100LL * 1024) << path;
     EXPECT_NE(export_provenance(c).note.find(e.note), std::string::npos) << path;
     const LoadedBasePolicy base =
-        load_base_policy(c, {kObservationDim, policy_input_dim(kObservationDim), 63, kObservationDim * rl::kAmpWindowFrames}, path);
+        load_base_policy(c, {kObservationDim, policy_input_dim(kObservationDim), 63, kObservationDim * kAmpWindowFrames}, path);
     EXPECT_EQ(base.config.env.motions, std::vector<std::string>{"bandai-walk"}) << path;
     EXPECT_EQ(base.config.mask.prob, e.mask_prob) << path;
     EXPECT_EQ(base.config.mask.lambda_mi, e.lambda_mi) << path;

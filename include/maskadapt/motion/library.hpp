@@ -19,6 +19,7 @@
 #include <maskadapt/humanoid/description.hpp>
 #include <maskadapt/humanoid/observation.hpp>
 #include <maskadapt/mask/parts.hpp>
+#include <maskadapt/motion/amp_window.hpp>
 #include <maskadapt/motion/clip.hpp>
 #include <maskadapt/motion/rotation.hpp>
 
@@ -30,9 +31,6 @@
 
 namespace maskadapt {
 
-/// Number of consecutive frames in one AMP discriminator sample, and their spacing (s).
-inline constexpr int kAmpWindowFrames = 5;
-inline constexpr double kAmpFrameDt = 1.0 / 30.0;
 
 /// Pose (no velocities) of a clip at time t (s). Non-looping clips clamp t to [0, duration].
 inline void clip_pose(const MotionClip& c, double t, KinematicState& out) {

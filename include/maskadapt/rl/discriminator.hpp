@@ -34,9 +34,6 @@
 
 namespace maskadapt::rl {
 
-/// Number of consecutive frames in one discriminator window (the method's choice).
-inline constexpr Index kAmpWindowFrames = 5;
-
 struct DiscriminatorConfig {
   Index feature_dim = 0;   ///< rows of a window (5 × per-frame AMP features)
   Index cond_dim = 0;      ///< conditioning rows (0: unconditional; 5: part mask bits)

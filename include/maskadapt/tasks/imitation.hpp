@@ -31,6 +31,7 @@
 #include <maskadapt/mask/apply.hpp>
 #include <maskadapt/mask/parts.hpp>
 #include <maskadapt/mask/sampler.hpp>
+#include <maskadapt/motion/amp_window.hpp>
 #include <maskadapt/motion/skeleton.hpp>
 #include <maskadapt/tasks/action_space.hpp>
 #include <maskadapt/sim/simulator.hpp>
@@ -45,9 +46,6 @@
 #include <vector>
 
 namespace maskadapt::tasks {
-
-/// Number of consecutive frames in a discriminator window (dt = 1/30 s apart).
-inline constexpr Index kAmpWindowFrames = 5;
 
 /// A simulator that can save and restore the exact state of one env (for bit-exact resume).
 /// `save_state(env)` returns a flat vector; `load_state(env, v)` restores it.

@@ -47,7 +47,7 @@ void load_task_state(const Checkpoint& c, const std::string& prefix, Task& task)
   for (Index e = 0; e < n; ++e) {
     ts.rngs.push_back(c.get_rng(prefix + "rng/" + std::to_string(e)));
     ts.history.push_back(
-        c.get_matrix<float>(prefix + "history/" + std::to_string(e), task.obs_dim(), tasks::kAmpWindowFrames));
+        c.get_matrix<float>(prefix + "history/" + std::to_string(e), task.obs_dim(), kAmpWindowFrames));
     ts.steps.push_back(steps[e]);
     ts.masks.push_back(static_cast<std::uint8_t>(masks[e]));
     if (has_sim) {
