@@ -45,14 +45,15 @@ static_assert(tasks::GoalTask<tasks::HeadingTask, TinyWalkerSim>);
 // ---- target location ----------------------------------------------------------------------------
 
 TEST(LocationTask, RewardIsOneInsideTheRadiusAndTheVelocityTermOutside) {
-  tasks::LocationConfig c;  // R 0.5 m, v* 1 m/s, k 0.25
+  tasks::LocationConfig c;  // R 0.5 m, v* 1 m/s, k 4
   const Vec3 root(0, 0, 0.9), target(3, 4, 0);  // 5 m away along (0.6, 0.8)
   EXPECT_EQ(tasks::location_reward(Vec3(3.3, 4.0, 0.9), Vec3::Zero(), target, c), 1.0);  // 0.3 m: inside
   EXPECT_EQ(tasks::location_reward(Vec3(3.0, 4.49, 0.9), Vec3::Zero(), target, c), 1.0);
   EXPECT_NEAR(tasks::location_reward(root, Vec3(0.6, 0.8, 0.0), target, c), 1.0, 1e-12);  // v·d = v*
-  EXPECT_NEAR(tasks::location_reward(root, Vec3::Zero(), target, c), std::exp(-0.25), 1e-12);
-  EXPECT_NEAR(tasks::location_reward(root, Vec3(-0.8, 0.6, 0.0), target, c), std::exp(-0.25), 1e-12);  // sideways
-  EXPECT_NEAR(tasks::location_reward(root, Vec3(-0.6, -0.8, 5.0), target, c), std::exp(-0.25 * 4.0), 1e-12);  // away; z ignored
+  EXPECT_NEAR(tasks::location_reward(root, Vec3::Zero(), target, c), std::exp(-4.0), 1e-12);  // standing: 0.018
+  EXPECT_NEAR(tasks::location_reward(root, Vec3(-0.8, 0.6, 0.0), target, c), std::exp(-4.0), 1e-12);  // sideways
+  EXPECT_NEAR(tasks::location_reward(root, Vec3(-0.6, -0.8, 5.0), target, c), std::exp(-4.0 * 4.0), 1e-12);  // away; z ignored
+  EXPECT_NEAR(tasks::location_reward(root, Vec3(0.3, 0.4, 0.0), target, c), std::exp(-4.0 * 0.25), 1e-12);  // half speed
 }
 
 TEST(LocationTask, GoalIsDirectionSpeedDistanceInTheHeadingFrame) {

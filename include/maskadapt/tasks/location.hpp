@@ -5,8 +5,10 @@
 ///  - reward: 1 inside the goal radius R (horizontal root–target distance ≤ R), otherwise
 ///    exp(−k·(v* − d·v_root)²), d the horizontal unit direction from the root to the target,
 ///    v_root the root's horizontal velocity, v* the target speed. The paper's k is unreadable in
-///    its text; we use k = 0.25 s²/m², the velocity-error scale of the location task in the prior
-///    work it follows (ASE, Peng et al. 2022);
+///    its text; we use k = 4 s²/m², the velocity-error scale of the location task in the prior work
+///    it follows (ASE, Peng et al. 2022; 0.25 is ASE's heading scale, which a wave-1 version used
+///    here by mistake: standing still then scored exp(−0.25) = 0.78). Unlike ASE we do not clip
+///    the error at 0 (the paper's formula does not), so walking faster than v* costs too;
 ///  - goal observation g ∈ R⁴: d in the root's heading frame (2), v* (1), distance (1, m);
 ///  - success: the root comes within R of the target while the trial's goal is held;
 ///  - schedule: a new target every `schedule` steps (uniform), drawn at a uniform angle and a
@@ -22,7 +24,7 @@ namespace maskadapt::tasks {
 struct LocationConfig {
   double radius = 0.5;          ///< R (m)
   double speed = 1.0;           ///< v* (m/s)
-  double velocity_scale = 0.25; ///< k (s²/m²)
+  double velocity_scale = 4.0;  ///< k (s²/m²)
   double min_distance = 1.0, max_distance = 5.0;  ///< target distance from the root when drawn (m)
   GoalSchedule schedule{150, 300};                ///< steps a target is held (5–10 s at 30 Hz)
   std::uint64_t seed = 1;
