@@ -152,7 +152,6 @@ TEST(MotionLibrary, AmpWindowsAreObservationsOfFiveFrames) {
   lib.amp_window(c60, 0.5, win);
   for (int k = 0; k < kAmpWindowFrames; ++k)
     EXPECT_EQ(win.segment(k * d, d), compute_observation(humanoid_skeleton(), lib.body_states(c60, 0.5 - (4 - k) / 30.0)));
-  const double t = 1.0;
   Rng rng(1);
   const MatrixXf batch = lib.sample_amp_windows(rng, 8);
   EXPECT_EQ(batch.rows(), 5 * kObservationDim);
