@@ -39,11 +39,25 @@ inline std::string mjcf_num(double x) {
 inline std::string mjcf_vec(const Vec3& v) {
   return mjcf_num(v.x()) + " " + mjcf_num(v.y()) + " " + mjcf_num(v.z());
 }
+/// The `<option>` and `<size>` lines: the time step and every PhysicsOptions field written out.
+inline std::string mjcf_physics(const PhysicsOptions& o, double physics_dt, int nconmax, int njmax) {
+  require(o.iterations >= 1 && o.tolerance >= 0 && o.contact_timeconst > 0 && o.contact_dampratio > 0,
+          "physics options out of range (iterations ≥ 1, tolerance ≥ 0, contact solref > 0)", {{}, {}, "physics"});
+  using PO = PhysicsOptions;
+  const char* integrator = o.integrator == PO::Integrator::Euler ? "Euler" : "implicit";
+  const char* solver = o.solver == PO::Solver::Newton ? "Newton" : o.solver == PO::Solver::CG ? "CG" : "PGS";
+  const char* cone = o.cone == PO::Cone::Pyramidal ? "pyramidal" : "elliptic";
+  const char* jacobian = o.jacobian == PO::Jacobian::Auto ? "auto" : o.jacobian == PO::Jacobian::Dense ? "dense" : "sparse";
+  return "  <option timestep=\"" + mjcf_num(physics_dt) + "\" integrator=\"" + integrator + "\" solver=\"" + solver +
+         "\" iterations=\"" + std::to_string(o.iterations) + "\" tolerance=\"" + mjcf_num(o.tolerance) + "\" cone=\"" +
+         cone + "\" jacobian=\"" + jacobian + "\"/>\n" + "  <size nconmax=\"" + std::to_string(nconmax) + "\" njmax=\"" +
+         std::to_string(njmax) + "\"/>\n";
+}
 }  // namespace detail
 
 /// The MJCF document of the humanoid. Deterministic: the same description gives the same text.
 inline std::string humanoid_mjcf(const HumanoidDescription& desc) {
-  using detail::mjcf_num, detail::mjcf_vec;
+  using detail::mjcf_num, detail::mjcf_vec, detail::mjcf_physics;
   const Skeleton& s = desc.skeleton;
   s.validate();
   require(static_cast<int>(desc.bodies.size()) == s.num_bodies(), "one BodyDescription per body expected",
@@ -54,17 +68,7 @@ inline std::string humanoid_mjcf(const HumanoidDescription& desc) {
   x += "<mujoco model=\"maskadapt_humanoid\">\n";
   x += "  <compiler angle=\"radian\" inertiafromgeom=\"true\"/>\n";
   const PhysicsOptions& o = desc.physics;
-  require(o.iterations >= 1 && o.tolerance >= 0 && o.contact_timeconst > 0 && o.contact_dampratio > 0,
-          "physics options out of range (iterations ≥ 1, tolerance ≥ 0, contact solref > 0)", {{}, {}, "physics"});
-  using PO = PhysicsOptions;
-  const char* integrator = o.integrator == PO::Integrator::Euler ? "Euler" : "implicit";
-  const char* solver = o.solver == PO::Solver::Newton ? "Newton" : o.solver == PO::Solver::CG ? "CG" : "PGS";
-  const char* cone = o.cone == PO::Cone::Pyramidal ? "pyramidal" : "elliptic";
-  const char* jacobian = o.jacobian == PO::Jacobian::Auto ? "auto" : o.jacobian == PO::Jacobian::Dense ? "dense" : "sparse";
-  x += "  <option timestep=\"" + mjcf_num(desc.physics_dt) + "\" integrator=\"" + integrator + "\" solver=\"" + solver +
-       "\" iterations=\"" + std::to_string(o.iterations) + "\" tolerance=\"" + mjcf_num(o.tolerance) + "\" cone=\"" +
-       cone + "\" jacobian=\"" + jacobian + "\"/>\n";
-  x += "  <size nconmax=\"" + std::to_string(desc.nconmax) + "\" njmax=\"" + std::to_string(desc.njmax) + "\"/>\n";
+  x += mjcf_physics(o, desc.physics_dt, desc.nconmax, desc.njmax);
   x += "  <worldbody>\n";
   const std::string solref = " solref=\"" + mjcf_num(o.contact_timeconst) + " " + mjcf_num(o.contact_dampratio) + "\"";
   x += "    <geom name=\"floor\" type=\"plane\" size=\"100 100 0.1\" contype=\"1\" conaffinity=\"1\" friction=\"" +
