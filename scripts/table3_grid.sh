@@ -6,8 +6,9 @@
 #   CELLS="heading_ours heading_cml" scripts/table3_grid.sh
 #   ITERATIONS=1500 THREADS=2 SEED=1 OUT=runs/t3 BIN=build/bin/maskadapt scripts/table3_grid.sh
 #
-# Resumable: a cell whose checkpoint exists continues it (--resume, bit-exact) up to ITERATIONS;
-# a cell with an eval.json is done. Stop it at any time (Ctrl-C checkpoints first).
+# Resumable and extendable: a cell whose checkpoint exists continues it (--resume, bit-exact) up to
+# ITERATIONS; a cell with an eval_it<ITERATIONS>.json is done. So a longer budget continues the same
+# runs: ITERATIONS=4800 scripts/table3_grid.sh. Stop it at any time (Ctrl-C checkpoints first).
 #
 # Motions composed (B) and masks, as the paper pairs them (supplementary §B), with what this machine
 # has: location — styles/swim on the arms (the arm-rotation stand-in of Table 2 (b): no
@@ -54,8 +55,9 @@ for cell in $CELLS; do
   task=${cell%_*}
   method=${cell#*_}
   dir="$OUT/${cell}_s$SEED"
-  if [[ -f "$dir/eval.json" ]]; then
-    echo "== $cell: done ($dir/eval.json)"
+  result="$dir/eval_it$ITERATIONS.json"
+  if [[ -f "$result" ]]; then
+    echo "== $cell: done ($result)"
     continue
   fi
   echo "== $cell: $(date -u +%H:%M:%S) training to $ITERATIONS iterations in $dir"
@@ -67,5 +69,5 @@ for cell in $CELLS; do
       --new-motion $(motion_for "$task") --masks "$(mask_for "$task")" $(goal_parts_for "$task") \
       --threads "$THREADS" --iterations "$ITERATIONS" --seed "$SEED" --out "$dir"
   fi
-  "$BIN" eval-residual "$dir/checkpoint.bin" --task "$task" --envs "$EVAL_ENVS" --trials "$TRIALS" --out "$dir/eval.json"
+  "$BIN" eval-residual "$dir/checkpoint.bin" --task "$task" --envs "$EVAL_ENVS" --trials "$TRIALS" --out "$result"
 done
