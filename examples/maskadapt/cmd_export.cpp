@@ -1,12 +1,18 @@
 // `maskadapt export CHECKPOINT --out FILE [--note TEXT]`: the policy-only model file of a
-// stage-1 training checkpoint (train/policy_export.hpp): config, actor, normaliser, action space,
-// counters and provenance — no replay buffer, optimiser, critic or discriminator. play, eval-base
-// and train-residual --base read it like the training checkpoint.
+// training checkpoint — no replay buffer, optimiser, critic or discriminator:
+//   - of a train-base checkpoint (train/policy_export.hpp): config, actor, normaliser, action
+//     space, counters and provenance; play, eval-base and train-residual --base read it like the
+//     training checkpoint;
+//   - of a train-residual checkpoint (train/residual_export.hpp): the residual or AdaptNet policy
+//     with its frozen base; play-residual and eval-residual read it like the checkpoint.
 #include "command_registry.hpp"
 
 #include <maskadapt/core/checkpoint.hpp>
 #include <maskadapt/core/error.hpp>
+#include <maskadapt/humanoid/description.hpp>
 #include <maskadapt/train/policy_export.hpp>
+#include <maskadapt/train/residual_export.hpp>
+#include <maskadapt/train/stage2_policy.hpp>
 
 #include <cmath>
 #include <filesystem>
@@ -71,20 +77,40 @@ void run_export(const ExportArgs& a) {
   info.git_commit = maskadapt::cli::build_commit();
   info.note = a.note;
   Checkpoint model;
-  export_base_policy(training, model, info);
+  const bool stage2 = training.contains("residual_config");
+  // a stage-2 export: build the policy the evaluations will build from it, on the bundled
+  // humanoid, before anything is written (every section's size is checked)
+  auto stage2_inputs = [](const Checkpoint& m) {
+    const ResidualTrainConfig c = check_residual_export(m);
+    const Skeleton& skel = humanoid_skeleton();
+    return c.method == "adaptnet" ? stage2_policy_from_checkpoint<adapt::AdaptNetPolicy<float>>(m, skel).input_dim()
+                                  : stage2_policy_from_checkpoint<adapt::ResidualPolicy<float>>(m, skel).input_dim();
+  };
+  if (stage2) {
+    export_residual_policy(training, model, info);
+    (void)stage2_inputs(model);
+  } else {
+    export_base_policy(training, model, info);
+  }
   save_checkpoint(a.out, model);
   // Read back what was written: the file on disk is the one that must load.
   const Checkpoint written = load_checkpoint(a.out);
-  const ModelDims d = check_policy_export(written);
   const ExportProvenance p = export_provenance(written);
   auto counter = [&](const char* name) {
     return written.contains(name) ? std::to_string(written.get_int(name)) : std::string("unknown");
   };
   std::cout << "export: " << a.checkpoint << " (" << megabytes(a.checkpoint) << ") -> " << a.out << " ("
             << megabytes(a.out) << ", " << written.size() << " sections, policy only)\n"
-            << "export: iteration " << counter("trainer/iteration") << ", samples " << counter("trainer/samples")
-            << ", obs " << d.obs_dim << ", policy input " << d.policy_input_dim << ", actions " << d.action_dim << "\n"
-            << "export: training wall time " << duration_text(p.train_seconds) << "\n"
+            << "export: iteration " << counter("trainer/iteration") << ", samples " << counter("trainer/samples");
+  if (stage2) {
+    const Index inputs = stage2_inputs(written);
+    std::cout << ", task " << written.get_string("model/task") << ", method " << written.get_string("model/method")
+              << ", policy input " << inputs << ", actions " << humanoid_skeleton().num_dofs() << "\n";
+  } else {
+    const ModelDims d = check_policy_export(written);
+    std::cout << ", obs " << d.obs_dim << ", policy input " << d.policy_input_dim << ", actions " << d.action_dim << "\n";
+  }
+  std::cout << "export: training wall time " << duration_text(p.train_seconds) << "\n"
             << "export: training history:\n";
   std::istringstream lines(p.history);
   for (std::string line; std::getline(lines, line);) std::cout << "  " << line << "\n";
@@ -95,8 +121,9 @@ void run_export(const ExportArgs& a) {
 const bool registered = maskadapt::cli::register_command([](CLI::App& app) {
   auto args = std::make_shared<ExportArgs>();
   CLI::App* c = app.add_subcommand(
-      "export", "Write the policy-only model file of a stage-1 checkpoint (for play, eval-base, train-residual --base)");
-  c->add_option("checkpoint", args->checkpoint, "stage-1 training checkpoint (train-base output)")
+      "export", "Write the policy-only model file of a training checkpoint: stage 1 (for play, eval-base, train-residual --base) or "
+                "stage 2 (for play-residual, eval-residual)");
+  c->add_option("checkpoint", args->checkpoint, "training checkpoint (train-base or train-residual output)")
       ->required()
       ->check(CLI::ExistingFile);
   c->add_option("--out", args->out, "model file to write (its directory must exist)")->required();

@@ -204,6 +204,10 @@ void run_train_residual(const Args& a) {
   std::unique_ptr<Checkpoint> resume;
   if (!a.resume.empty()) {  // the run's own config; only budgets and the output directory may change
     resume = std::make_unique<Checkpoint>(load_checkpoint(a.resume));
+    require(!resume->contains("model/kind"),
+            "a policy-only model file cannot be resumed (it has no critic, discriminator or optimiser state); resume from the "
+            "run's checkpoint.bin",
+            {a.resume, std::nullopt, "model/kind"});
     c = residual_config_from_json(nlohmann::json::parse(resume->get_string("residual_config")), a.resume);
   } else {
     c.rl = a.config.empty() ? (a.preset.empty() ? cpu_preset() : preset(a.preset, "--preset")) : load_config(a.config);
@@ -230,7 +234,11 @@ void run_train_residual(const Args& a) {
     require(c.method == "scratch" || !a.base.empty(), "a base checkpoint is needed (or --method scratch)", {{}, {}, "--base"});
     if (c.method != "scratch") {
       // The frozen base's architecture and, unless --motions, its motion set A come from its checkpoint.
-      const BaseTrainConfig bc = config_from_string(load_checkpoint(a.base).get_string("config"), a.base + " (config)");
+      const Checkpoint base_file = load_checkpoint(a.base);
+      require(!base_file.contains("residual_config"),
+              "a stage-2 (train-residual) checkpoint or export; --base takes a stage-1 checkpoint (train-base output) or its export",
+              {a.base, std::nullopt, "residual_config"});
+      const BaseTrainConfig bc = config_from_string(base_file.get_string("config"), a.base + " (config)");
       c.rl.net.actor_hidden = bc.net.actor_hidden;
       c.rl.net.activation = bc.net.activation;
       c.rl.net.init_log_std = bc.net.init_log_std;
@@ -300,6 +308,9 @@ void run_train_residual(const Args& a) {
       trainer.load(*resume);
       std::cout << "train-residual: resumed at iteration " << trainer.iteration() << " from " << a.resume << "\n";
     }
+    trainer.add_provenance(cli::provenance_line() + (resume ? " (resumed at iteration " + std::to_string(trainer.iteration()) +
+                                                                  ", sample " + std::to_string(trainer.samples()) + ")"
+                                                            : std::string()));
     std::cout << "train-residual: " << describe_actions(trainer.policy().actions(), c.rl.net) << "\n";
     std::filesystem::create_directories(c.rl.run.out_dir);
     std::ofstream(c.rl.run.out_dir + "/residual_config.json") << to_json(c).dump(2) << "\n";

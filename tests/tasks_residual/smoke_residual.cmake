@@ -4,7 +4,7 @@
 # with a mask schedule and with a text schedule (BVH + viewer rollout), eval-residual for both
 # tasks (shrunk), a composition run + resume + play + eval on a base with normalised actions, and
 # the goal tasks (location, heading, strike: train, a strike resume, eval's success rate, play with
-# the goals in the rollout; AdaptNet on heading).
+# the goals in the rollout; AdaptNet on heading), and policy-only exports of stage-2 runs.
 # Every output must exist and parse.
 file(REMOVE_RECURSE ${OUT})
 file(MAKE_DIRECTORY ${OUT})
@@ -163,5 +163,45 @@ string(JSON n LENGTH "${j}" scene arrows)
 if(NOT n EQUAL 30)
   message(FATAL_ERROR "play_adaptnet.json: ${n} heading arrows, expected 30")
 endif()
+
+# Policy-only exports of stage-2 runs (ours on strike, AdaptNet on heading): smaller than the
+# checkpoint, and eval-residual on the export prints the same figures as on the checkpoint;
+# play-residual plays it; resuming it or using it as a --base is refused naming the section.
+foreach(run goal_strike goal_adaptnet)
+  run("export ${run}" export ${OUT}/${run}/checkpoint.bin --out ${OUT}/${run}_model.bin --note smoke)
+  file(SIZE ${OUT}/${run}/checkpoint.bin ckpt_size)
+  file(SIZE ${OUT}/${run}_model.bin model_size)
+  if(NOT model_size LESS ckpt_size)
+    message(FATAL_ERROR "export of ${run}: ${model_size} bytes, the checkpoint ${ckpt_size}")
+  endif()
+  foreach(src checkpoint model)
+    if(src STREQUAL "checkpoint")
+      set(file ${OUT}/${run}/checkpoint.bin)
+    else()
+      set(file ${OUT}/${run}_model.bin)
+    endif()
+    run("eval-residual ${run} (${src})" eval-residual ${file} --envs 2 --trials 2 --seed 3 --out ${OUT}/eval_${run}_${src}.json)
+    file(READ ${OUT}/eval_${run}_${src}.json j)
+    string(JSON reward_${src} GET "${j}" mean_reward)
+    string(JSON successes_${src} GET "${j}" successes)
+    string(JSON steps_${src} GET "${j}" steps)
+  endforeach()
+  if(NOT reward_checkpoint STREQUAL reward_model OR NOT successes_checkpoint EQUAL successes_model
+     OR NOT steps_checkpoint EQUAL steps_model)
+    message(FATAL_ERROR "${run}: the export evaluates differently: reward ${reward_checkpoint} vs ${reward_model}, "
+                        "successes ${successes_checkpoint} vs ${successes_model}, steps ${steps_checkpoint} vs ${steps_model}")
+  endif()
+  run("play-residual ${run} (export)" play-residual ${OUT}/${run}_model.bin --seconds 0.5 --bvh ${OUT}/${run}_model.bvh)
+endforeach()
+function(refused what regex)
+  execute_process(COMMAND ${CLI} ${ARGN} RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err TIMEOUT 60)
+  if(NOT rc EQUAL 1 OR NOT "${out}${err}" MATCHES "${regex}")
+    message(FATAL_ERROR "${what}: exit status '${rc}' (expected 1), or the message does not match '${regex}': ${out}${err}")
+  endif()
+endfunction()
+refused("resuming an export" "field 'model/kind': a policy-only model file cannot be resumed"
+        train-residual --resume ${OUT}/goal_strike_model.bin --iterations 3 --out ${OUT}/resumed_export)
+refused("an export as --base" "field 'residual_config': a stage-2 \\(train-residual\\) checkpoint or export"
+        train-residual --task heading --base ${OUT}/goal_adaptnet_model.bin --iterations 1 ${tiny} --out ${OUT}/export_as_base)
 
 message(STATUS "stage-2 CLI smoke OK: composition ours/cml + resume, tracking, play (mask/text), eval (H_norm adapted ${h}, success ${sr}; AdaptNet trains, evaluates and plays)")

@@ -6,6 +6,7 @@
 
 #include <maskadapt/train/goal_eval.hpp>
 #include <maskadapt/train/residual_eval.hpp>
+#include <maskadapt/train/residual_export.hpp>
 #include <maskadapt/adapt/adaptnet_policy.hpp>
 #include <maskadapt/tasks/heading.hpp>
 #include <maskadapt/tasks/location.hpp>
@@ -134,6 +135,13 @@ ResidualSetup<Sim> composition_setup(const Data& d, const std::string& method, c
     s.discriminators = {a, b};
   }
   return s;
+}
+
+// A checkpoint's bytes without its training wall time (provenance/train_seconds: never equal
+// between two runs, and never read back into training).
+std::vector<std::uint8_t> bytes_without_wall_time(Checkpoint c) {
+  c.erase("provenance/train_seconds");
+  return serialize_checkpoint(c);
 }
 
 bool same_bits(const VectorXf& a, const VectorXf& b) {
@@ -561,7 +569,7 @@ TEST(ResidualTrainer, IdentityBaseWritesNoActionSpace) {
     Checkpoint ck;
     tr->save(ck);
     for (const auto& n : ck.names()) EXPECT_EQ(n.find("action_"), std::string::npos) << n;
-    bytes.push_back(serialize_checkpoint(ck));
+    bytes.push_back(bytes_without_wall_time(ck));
   }
   EXPECT_TRUE(bytes[0] == bytes[1]);
 }
@@ -610,7 +618,7 @@ TEST(ResidualTrainer, NormalisedBaseResumesBitExactlyWithTheCheckpointsActionSpa
     Checkpoint a, b;
     straight->save(a);
     resumed->save(b);
-    EXPECT_TRUE(serialize_checkpoint(a) == serialize_checkpoint(b)) << task;
+    EXPECT_TRUE(bytes_without_wall_time(a) == bytes_without_wall_time(b)) << task;
   }
 }
 
@@ -703,6 +711,124 @@ TEST(ResidualTrainer, AdaptNetTrainsOnAGoalTaskAndResumesBitExactly) {
   Checkpoint a, b;
   straight->save(a);
   resumed->save(b);
-  EXPECT_TRUE(serialize_checkpoint(a) == serialize_checkpoint(b));
+  EXPECT_TRUE(bytes_without_wall_time(a) == bytes_without_wall_time(b));
   EXPECT_THROW(tiny_config("composition", "adaptnet").validate(), Error);  // AdaptNet is for goal tasks
+}
+
+// A policy-only export of a stage-2 run (train/residual_export.hpp) holds the policy and its
+// frozen base and nothing the training alone needs; the policy read back from it acts bit for
+// bit as the one read from the checkpoint (ours and AdaptNet); bad files are refused naming the
+// section; the run's history travels with it.
+TEST(ResidualExport, ActsAsTheCheckpointAndHoldsOnlyThePolicy) {
+  Data d;
+  TinyWalkerSim sim_r(4), sim_a(4);
+  const Skeleton& skel = sim_r.skeleton();
+  // (the CLI copies the base's architecture into the run's config; loading needs it)
+  auto config = [](const std::string& task, const std::string& method) {
+    ResidualTrainConfig c = tiny_config(task, method);
+    c.rl.net.actor_hidden = {16, 16};
+    return c;
+  };
+  ResidualTrainer<TinyWalkerSim> ours(sim_r, upright(skel), tiny_base(skel), composition_setup(d, "ours", observation_parts(skel)),
+                                      config("composition", "ours"), nullptr, tiny_fall(skel));
+  ResidualSetup<TinyWalkerSim> goal_setup;
+  goal_setup.masks = {PartMask::parse("arms")};
+  tasks::LocationConfig lc;
+  lc.schedule = {3, 5};
+  goal_setup.goal = tasks::LocationTask(lc, 4);
+  ResidualTrainer<TinyWalkerSim, adapt::AdaptNetPolicy<float>> adaptnet(sim_a, upright(skel), tiny_base(skel), std::move(goal_setup),
+                                                                       config("location", "adaptnet"), nullptr, tiny_fall(skel));
+  ours.add_provenance("chunk 1 (test)");
+  for (int i = 0; i < 2; ++i) {
+    ours.iterate();
+    adaptnet.iterate();
+  }
+  ExportInfo info;
+  info.exported_from = "runs/x/checkpoint.bin";
+  info.git_commit = "abc1234";
+  info.note = "unit test";
+  Rng rng(3);
+  MatrixXf x;
+
+  auto check = [&](const Checkpoint& training, auto build, const std::string& method) {
+    Checkpoint model;
+    export_residual_policy(training, model, info);
+    EXPECT_TRUE(is_residual_export(model)) << method;
+    EXPECT_EQ(model.get_string("model/method"), method);
+    EXPECT_EQ(check_residual_export(model).method, method);
+    for (const std::string& name : model.names()) {  // only the policy, its base, the config and the records
+      const bool kept = name.rfind("residual", 0) == 0 || name.rfind("adaptnet/", 0) == 0 || name.rfind("base/actor/", 0) == 0 ||
+                        name.rfind("model/", 0) == 0 || name.rfind("provenance/", 0) == 0 || name.rfind("trainer/", 0) == 0 ||
+                        name == "config";
+      EXPECT_TRUE(kept) << method << ": " << name;
+      if (name.rfind("residual", 0) == 0 || name.rfind("adaptnet/", 0) == 0 || name.rfind("base/actor/", 0) == 0 || name == "config") {
+        EXPECT_TRUE(model.section(name).data == training.section(name).data) << method << ": " << name;
+      }
+    }
+    for (const char* gone : {"critic/params", "popart/mean", "disc/0/params", "state/rng"})
+      EXPECT_FALSE(model.contains(gone)) << method << ": " << gone;
+    EXPECT_LT(serialize_checkpoint(model).size(), serialize_checkpoint(training).size());
+    EXPECT_EQ(model.get_int("trainer/iteration"), 2);
+    // the policies built from the checkpoint and from the export: identical mean actions
+    const auto from_ckpt = build(training);
+    const auto from_model = build(model);
+    x.resize(from_ckpt.input_dim(), 6);
+    for (Index i = 0; i < x.size(); ++i) x.data()[i] = static_cast<float>(rng.uniform(-1.0, 1.0));
+    const std::vector<PartMask> masks(6, PartMask::parse("arms"));
+    MatrixXf mu_c, mu_m;
+    typename Stage2Types<std::decay_t<decltype(from_ckpt)>>::Workspace ws;
+    from_ckpt.mean(x, masks, mu_c, ws);
+    from_model.mean(x, masks, mu_m, ws);
+    EXPECT_TRUE(mu_c.size() == mu_m.size() &&
+                std::memcmp(mu_c.data(), mu_m.data(), sizeof(float) * static_cast<std::size_t>(mu_c.size())) == 0)
+        << method;
+    EXPECT_GT(mu_c.cwiseAbs().maxCoeff(), 0.0f);
+    // refusals, each naming the section
+    auto refused = [&](const Checkpoint& c, const std::string& section, auto fn) {
+      try {
+        fn(c);
+        ADD_FAILURE() << method << ": accepted a file without a valid " << section;
+      } catch (const Error& e) {
+        EXPECT_NE(std::string(e.what()).find(section), std::string::npos) << e.what();
+      }
+    };
+    auto do_export = [&](const Checkpoint& c) {
+      Checkpoint o;
+      export_residual_policy(c, o, info);
+    };
+    auto do_check = [&](const Checkpoint& c) { (void)check_residual_export(c); };
+    refused(model, "model/kind", do_export);  // an export of an export
+    Checkpoint no_config = training;
+    no_config.erase("residual_config");
+    refused(no_config, "residual_config", do_export);  // a stage-1 checkpoint has none
+    const char* policy_section = method == "adaptnet" ? "adaptnet/embed" : "residual/params";
+    Checkpoint no_policy = training;
+    no_policy.erase(policy_section);
+    refused(no_policy, policy_section, do_export);
+    Checkpoint missing = model;
+    missing.erase("base/actor/params");
+    refused(missing, "base/actor/params", do_check);
+    Checkpoint other_method = model;
+    other_method.put_string("model/method", method == "adaptnet" ? "ours" : "adaptnet");
+    refused(other_method, "model/method", do_check);
+    Checkpoint base_kind = model;
+    base_kind.put_string("model/kind", kPolicyExportKind);
+    refused(base_kind, "model/kind", do_check);
+    return model;
+  };
+  Checkpoint ours_ck, adaptnet_ck;
+  ours.save(ours_ck);
+  adaptnet.save(adaptnet_ck);
+  const Checkpoint ours_model =
+      check(ours_ck, [&](const Checkpoint& c) { return stage2_policy_from_checkpoint<adapt::ResidualPolicy<float>>(c, skel); }, "ours");
+  (void)check(adaptnet_ck, [&](const Checkpoint& c) { return stage2_policy_from_checkpoint<adapt::AdaptNetPolicy<float>>(c, skel); },
+              "adaptnet");
+  // the run's history and training time travel with it, with the export's own records
+  const ExportProvenance p = export_provenance(ours_model);
+  EXPECT_EQ(p.history, "chunk 1 (test)\n");
+  EXPECT_GT(p.train_seconds, 0.0);
+  EXPECT_EQ(p.train_seconds, ours.train_seconds());
+  EXPECT_EQ(p.exported_from, "runs/x/checkpoint.bin");
+  EXPECT_EQ(p.export_git_commit, "abc1234");
+  EXPECT_EQ(p.note, "unit test");
 }

@@ -1,7 +1,7 @@
 # cmake -DCLI=… -DCKPT=… -DCONFIG=…/configs/smoke.json -DOUT=… -P smoke_export.cmake
 # `maskadapt export` on the smoke training's checkpoint: the model file exists, is smaller, and
 # play / eval-base / train-residual --base run on it; bad inputs (missing file, not a checkpoint,
-# a stage-2 checkpoint, an export, --out in a missing directory or over the input) fail with a
+# an export (of either stage), --out in a missing directory or over the input) fail with a
 # maskadapt error that names the problem, never a crash.
 file(REMOVE_RECURSE ${OUT})
 file(MAKE_DIRECTORY ${OUT})
@@ -57,6 +57,13 @@ if(NOT rc EQUAL 0 OR NOT EXISTS ${OUT}/residual/checkpoint.bin)
   message(FATAL_ERROR "train-residual --base on the export failed (${rc}): ${out}${err}")
 endif()
 
+# a stage-2 checkpoint exports too (its own smoke test plays and evaluates such exports)
+execute_process(COMMAND ${CLI} export ${OUT}/residual/checkpoint.bin --out ${OUT}/residual_model.bin
+                RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err)
+if(NOT rc EQUAL 0 OR NOT "${out}" MATCHES "task composition, method ours")
+  message(FATAL_ERROR "export of the stage-2 checkpoint failed (${rc}): ${out}${err}")
+endif()
+
 # refused(DESCRIPTION REGEX ARGS...): exit status 1 (a maskadapt::Error) or 105 (a flag rejected
 # while parsing), and the output matches REGEX
 function(refused what regex)
@@ -71,8 +78,8 @@ endfunction()
 file(WRITE ${OUT}/notes.txt "not a checkpoint\n")
 refused("a missing file" "missing\\.bin" export ${OUT}/missing.bin --out ${OUT}/x.bin)
 refused("a text file" "notes\\.txt: not a maskadapt checkpoint" export ${OUT}/notes.txt --out ${OUT}/x.bin)
-refused("a stage-2 checkpoint" "field 'residual_config': a stage-2 \\(train-residual\\) checkpoint"
-        export ${OUT}/residual/checkpoint.bin --out ${OUT}/x.bin)
+refused("a stage-2 export" "field 'model/kind': already a policy-only model file"
+        export ${OUT}/residual_model.bin --out ${OUT}/x.bin)
 refused("an export" "field 'model/kind': already a policy-only model file" export ${MODEL} --out ${OUT}/x.bin)
 refused("into a missing directory" "field '--out': directory .*no/such/dir.* does not exist"
         export ${CKPT} --out ${OUT}/no/such/dir/x.bin)

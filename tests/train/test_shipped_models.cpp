@@ -7,9 +7,12 @@
 #include <maskadapt/motion/amp_window.hpp>
 #include <maskadapt/train/base_policy.hpp>
 #include <maskadapt/train/policy_export.hpp>
+#include <maskadapt/train/residual_export.hpp>
+#include <maskadapt/train/stage2_policy.hpp>
 
 #include <gtest/gtest.h>
 
+#include <cstring>
 #include <string>
 #include <vector>
 
@@ -110,4 +113,39 @@ TEST(ShippedModels, Table1BasesLoadAsTheVariantsTheyClaimToBe) {
     EXPECT_EQ(base.config.mask.hidden_value, "mean") << path;
     EXPECT_EQ(base.config.run.seed, e.seed) << path;
   }
+}
+
+// The Table 3 policies (issue 16, models/table3/): each is the stage-2 export of the cell it is
+// named after — its task, its method, 1,500 iterations, a frozen base that is bit for bit the
+// shipped walking base's actor — and builds on the reference humanoid with finite mean actions.
+TEST(ShippedModels, Table3PoliciesAreTheCellsTheyClaimToBeOnTheShippedBase) {
+  const Checkpoint walker = load_checkpoint(MASKADAPT_SOURCE_DIR "/models/mask_mi_walk_bandai.bin");
+  const CheckpointSection& walker_actor = walker.section("actor/params");
+  const Skeleton& skel = humanoid_skeleton();
+  for (const char* task : {"location", "heading", "strike"})
+    for (const char* method : {"ours", "cml", "adaptnet"}) {
+      const std::string path = std::string(MASKADAPT_SOURCE_DIR "/models/table3/") + task + "_" + method + ".bin";
+      const Checkpoint c = load_checkpoint(path);
+      ASSERT_TRUE(is_residual_export(c)) << path;
+      const ResidualTrainConfig cfg = check_residual_export(c, path);
+      EXPECT_EQ(cfg.task, task) << path;
+      EXPECT_EQ(cfg.method, method) << path;
+      EXPECT_EQ(cfg.goal_parts, std::string(task) == "heading" ? "" : "lower_body") << path;
+      EXPECT_EQ(c.get_int("trainer/iteration"), 1500) << path;
+      EXPECT_NE(export_provenance(c).note.find(std::string("Table 3 cell ") + task + "/" + method), std::string::npos) << path;
+      const CheckpointSection& base = c.section("base/actor/params");
+      EXPECT_TRUE(base.data == walker_actor.data) << path << ": the frozen base is not models/mask_mi_walk_bandai.bin's actor";
+      auto mean_actions = [&]<class Policy>() {
+        const Policy pol = stage2_policy_from_checkpoint<Policy>(c, skel);
+        MatrixXf x = MatrixXf::Zero(pol.input_dim(), 1), mu;
+        typename Stage2Types<Policy>::Workspace ws;
+        const std::vector<PartMask> masks{PartMask::parse(cfg.masks.front())};
+        pol.mean(x, masks, mu, ws);
+        return mu;
+      };
+      const MatrixXf mu = std::string(method) == "adaptnet" ? mean_actions.template operator()<adapt::AdaptNetPolicy<float>>()
+                                                            : mean_actions.template operator()<adapt::ResidualPolicy<float>>();
+      EXPECT_EQ(mu.rows(), 63) << path;
+      EXPECT_TRUE(mu.allFinite()) << path;
+    }
 }

@@ -59,6 +59,7 @@
 #include <maskadapt/train/task_state.hpp>
 #include <maskadapt/train/config.hpp>
 #include <maskadapt/train/progress.hpp>
+#include <maskadapt/train/run_provenance.hpp>
 
 #include <algorithm>
 #include <cmath>
@@ -173,7 +174,7 @@ class BaseTrainer {
     samples_ += batch;
     if (distributed()) sum_episode_stats_over_ranks();
     finish_iteration_stats(st, iteration_, samples_, batch, total.seconds(), task_.stats());
-    train_seconds_ += st.time_total;
+    provenance_.train_seconds += st.time_total;
     return st;
   }
 
@@ -237,8 +238,7 @@ class BaseTrainer {
     }
     // provenance/ sections record how the run came about; they never affect training (and
     // differ between a straight and a resumed run: wall time)
-    c.put_string("provenance/history", provenance_);
-    c.put_double("provenance/train_seconds", train_seconds_);
+    provenance_.save(c);
   }
 
   /// Distributed: collective; rank 0 writes the file (every rank's envs), the others write nothing.
@@ -290,10 +290,7 @@ class BaseTrainer {
     samples_ = c.get_int("trainer/samples");
     if (distributed()) load_task_state(slice_task_state(c, "task/", env_offset_, task_.num_envs()), "task/", task_);
     else load_task_state(c, "task/", task_);
-    // (checkpoints written before these records: the history is unknown, and so is the time)
-    provenance_ = c.contains("provenance/history") ? c.get_string("provenance/history")
-                                                   : std::string("(earlier chunks predate provenance records)\n");
-    train_seconds_ = c.contains("provenance/train_seconds") ? c.get_double("provenance/train_seconds") : NAN;
+    provenance_.load(c);
   }
 
   /// Forks a resumed run onto another seed: the trainer's stream (action noise, minibatches,
@@ -310,11 +307,11 @@ class BaseTrainer {
 
   /// Appends one line to the run's history (what started or resumed it: date, git commit,
   /// command line); saved in `provenance/history` and carried into exported models.
-  void add_provenance(const std::string& line) { provenance_ += line + "\n"; }
-  const std::string& provenance() const { return provenance_; }
+  void add_provenance(const std::string& line) { provenance_.add(line); }
+  const std::string& provenance() const { return provenance_.history; }
   /// Wall seconds spent in iterate() over the whole run, resumed chunks included (NaN when the
   /// run started from a checkpoint that did not record it).
-  double train_seconds() const { return train_seconds_; }
+  double train_seconds() const { return provenance_.train_seconds; }
 
  private:
   /// mask.hidden_value = mean: the actor puts hidden elements at their running mean
@@ -764,8 +761,7 @@ class BaseTrainer {
   MatrixXf frozen_mu_;        ///< (action_dim × N·H) the MI target's μ(s, m⁰) (target_frozen, target_ema)
   nn::Mlp<float> mi_target_net_;  ///< target_ema: moving average of actor.mean_net (empty until masking starts)
   MatrixXf diag_full_mu_, diag_masked_mu_;  ///< (action_dim × N·H) μ(s, m⁰), μ(s̄, m): the logged masked/unmasked KL
-  std::string provenance_;    ///< one line per start / resume (provenance/history)
-  double train_seconds_ = 0;  ///< wall seconds in iterate(), all chunks (provenance/train_seconds)
+  RunProvenance provenance_;  ///< start / resume lines and training wall time (provenance/*)
   // workspaces (collection path allocates nothing once sized)
   nn::InferenceWorkspace<float> actor_ws_, critic_ws_;
   nn::TrainCache<float> actor_cache_, critic_cache_;

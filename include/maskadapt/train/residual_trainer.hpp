@@ -65,6 +65,7 @@
 #include <maskadapt/train/progress.hpp>
 #include <maskadapt/train/residual_config.hpp>
 #include <maskadapt/train/reward_discriminators.hpp>
+#include <maskadapt/train/run_provenance.hpp>
 #include <maskadapt/train/stage2_learner.hpp>
 #include <maskadapt/train/stage2_policy.hpp>
 #include <maskadapt/train/task_state.hpp>
@@ -144,6 +145,13 @@ class ResidualTrainer {
   long long samples() const { return samples_; }
   /// Mean goal-task reward of the last iteration (NaN without a goal task; tracking: exp(−‖q* − q‖²)).
   double last_goal_reward() const { return last_goal_reward_; }
+  /// Appends one line to the run's history (what started or resumed it: date, git commit,
+  /// command line); saved in `provenance/history` and carried into exported models.
+  void add_provenance(const std::string& line) { provenance_.add(line); }
+  const std::string& provenance() const { return provenance_.history; }
+  /// Wall seconds spent in iterate() over the whole run, resumed chunks included (NaN when the
+  /// run started from a checkpoint that did not record it).
+  double train_seconds() const { return provenance_.train_seconds; }
   /// The goal task (empty without one).
   tasks::AnyGoalTask<Sim>& goal_task() { return setup_.goal; }
   /// Critic input rows [s ; m ; g].
@@ -183,6 +191,7 @@ class ResidualTrainer {
     ++iteration_;
     samples_ += buf_.size();
     finish_iteration_stats(st, iteration_, samples_, buf_.size(), total.seconds(), task_.stats());
+    provenance_.train_seconds += st.time_total;
     st.mask_fraction = 1.0;  // the residual task's own masks, not the imitation task's (which has none)
     return st;
   }
@@ -196,6 +205,7 @@ class ResidualTrainer {
     discs_.save(c);
     c.put_int("trainer/iteration", iteration_);
     c.put_int("trainer/samples", samples_);
+    provenance_.save(c);  // (how the run came about; never read back into training)
     save_training_state(c);
   }
   void save(const std::string& path) const {
@@ -212,6 +222,7 @@ class ResidualTrainer {
     discs_.load(c);
     iteration_ = c.get_int("trainer/iteration");
     samples_ = c.get_int("trainer/samples");
+    provenance_.load(c);
     if (c.contains("state/rng")) load_training_state(c);
   }
 
@@ -351,6 +362,7 @@ class ResidualTrainer {
   rl::RolloutBuffer<float> buf_;
   long long iteration_ = 0, samples_ = 0;
   double last_goal_reward_ = NAN;
+  RunProvenance provenance_;  ///< start / resume lines and training wall time (provenance/*)
   long long goal_terminations_ = 0;
   RowVectorXf goal_rewards_;
   // workspaces
