@@ -108,7 +108,7 @@ const std::vector<MatrixXf>& random_target_cycle() {
       for (Index e = 0; e < kOptionEnvs; ++e)
         for (int i = 1; i < s.num_bodies(); ++i)
           for (int j = 0; j < 3; ++j)
-            t(Skeleton::dof_offset(i) + j, e) = static_cast<float>(r.uniform(s.joint_lower(j, i), s.joint_upper(j, i)));
+            t(s.dof_offset(i) + j, e) = static_cast<float>(r.uniform(s.dof_lower(s.dof_offset(i) + j), s.dof_upper(s.dof_offset(i) + j)));
       c.push_back(std::move(t));
     }
     return c;

@@ -236,7 +236,7 @@ TEST(Composition, BlendedRealSamplesTakeBOnMaskedPartsAndAElsewhere) {
   const int T = std::min(bl.num_frames(), b.clip(0).num_frames());
   for (int t = 0; t < T; ++t)
     for (int body = 1; body < skel.num_bodies(); ++body) {
-      const int k = Skeleton::dof_offset(body);
+      const int k = humanoid_skeleton().dof_offset(body);
       const Vec3 want = lower.has(skel.parts[static_cast<std::size_t>(body)]) ? Vec3(b.clip(0).q.col(t).segment<3>(k))
                                                                                : Vec3(a.clip(0).q.col(t).segment<3>(k));
       EXPECT_EQ(Vec3(bl.q.col(t).segment<3>(k)), want) << "frame " << t << " body " << body;

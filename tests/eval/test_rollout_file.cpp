@@ -32,8 +32,8 @@ Rollout sample_rollout() {
     KinematicState s = humanoid_standing_pose();
     s.root_pos.x() = 0.05 * f;
     s.root_rot = Quat(Eigen::AngleAxisd(0.1 * f, Vec3::UnitZ()));
-    s.q[Skeleton::dof_offset(hb::LShoulder)] = 0.3 * std::sin(f);
-    s.q[Skeleton::dof_offset(hb::RKnee) + 1] = 0.5;
+    s.q[humanoid_skeleton().dof_offset(hb::LShoulder)] = 0.3 * std::sin(f);
+    s.q[humanoid_skeleton().dof_offset(hb::RKnee) + 1] = 0.5;
     const BodyStates bs = forward_kinematics(skel, s);
     std::vector<bool> contacts(static_cast<std::size_t>(skel.num_bodies()), false);
     contacts[hb::LAnkle] = f % 2 == 0;

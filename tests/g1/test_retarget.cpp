@@ -60,8 +60,8 @@ MotionClip rt_standing_clip(int frames) {
   c.name = "standing";
   c.resize(frames, humanoid_skeleton().num_dofs());
   KinematicState s = humanoid_standing_pose();
-  s.q[Skeleton::dof_offset(hb::LShoulder)] = -1.3;
-  s.q[Skeleton::dof_offset(hb::RShoulder)] = 1.3;
+  s.q[humanoid_skeleton().dof_offset(hb::LShoulder)] = -1.3;
+  s.q[humanoid_skeleton().dof_offset(hb::RShoulder)] = 1.3;
   for (int t = 0; t < frames; ++t) c.set_frame(t, s);
   return c;
 }
@@ -139,7 +139,7 @@ TEST(G1Retarget, LimitsHoldForUnreachableTargets) {
   for (int t = 0; t < c.num_frames(); ++t) {
     for (int b = 1; b < s.num_bodies(); ++b)
       for (int k = 0; k < 3; ++k)
-        c.q(Skeleton::dof_offset(b) + k, t) = s.joint_lower(k, b) + u(rng) * (s.joint_upper(k, b) - s.joint_lower(k, b));
+        c.q(s.dof_offset(b) + k, t) = s.dof_lower(s.dof_offset(b) + k) + u(rng) * (s.dof_upper(s.dof_offset(b) + k) - s.dof_lower(s.dof_offset(b) + k));
     c.root_pos.col(t) = Vec3(0.1 * t, 0, 0.9);
     c.set_rot(t, rt_random_rot(rng, 3.0));
   }

@@ -30,9 +30,9 @@ TEST(HumanoidDescription, LeftRightMirrorSymmetric) {
     const Vec3 mirrored(s.offsets(0, i), -s.offsets(1, i), s.offsets(2, i));
     EXPECT_LT((mirrored - s.offsets.col(j)).norm(), 1e-12) << s.names[i];
     // Mirroring flips x- and z-hinges: lower_L(x) = −upper_R(x); y-hinges are equal.
-    EXPECT_DOUBLE_EQ(s.joint_lower(0, i), -s.joint_upper(0, j)) << s.names[i];
-    EXPECT_DOUBLE_EQ(s.joint_lower(1, i), s.joint_lower(1, j)) << s.names[i];
-    EXPECT_DOUBLE_EQ(s.joint_lower(2, i), -s.joint_upper(2, j)) << s.names[i];
+    EXPECT_DOUBLE_EQ(s.dof_lower(s.dof_offset(i) + 0), -s.dof_upper(s.dof_offset(j) + 0)) << s.names[i];
+    EXPECT_DOUBLE_EQ(s.dof_lower(s.dof_offset(i) + 1), s.dof_lower(s.dof_offset(j) + 1)) << s.names[i];
+    EXPECT_DOUBLE_EQ(s.dof_lower(s.dof_offset(i) + 2), -s.dof_upper(s.dof_offset(j) + 2)) << s.names[i];
     EXPECT_DOUBLE_EQ(humanoid_description().bodies[i].mass(), humanoid_description().bodies[j].mass());
   }
 }

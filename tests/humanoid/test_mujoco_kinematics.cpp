@@ -15,8 +15,7 @@ KinematicState random_state(Rng& r, bool with_velocity) {
   KinematicState st = KinematicState::zero(s);
   st.root_pos = Vec3(r.uniform(-2, 2), r.uniform(-2, 2), r.uniform(0.8, 1.5));
   st.root_rot = Quat(r.normal(), r.normal(), r.normal(), r.normal()).normalized();
-  for (int i = 1; i < s.num_bodies(); ++i)
-    for (int k = 0; k < 3; ++k) st.q[Skeleton::dof_offset(i) + k] = r.uniform(s.joint_lower(k, i), s.joint_upper(k, i));
+  for (int k = 0; k < s.num_dofs(); ++k) st.q[k] = r.uniform(s.dof_lower(k), s.dof_upper(k));
   if (with_velocity) {
     for (Index k = 0; k < st.qd.size(); ++k) st.qd[k] = r.normal(0, 2);
     st.root_lin_vel = Vec3(r.normal(), r.normal(), r.normal());
@@ -69,7 +68,7 @@ TEST(MujocoKinematics, MassAndJointRangesMatchTheDescription) {
   EXPECT_NEAR(mass, humanoid_description().total_mass(), 1e-9);
   const int j = mj_name2id(m, mjOBJ_JOINT, "L_Knee_y");
   ASSERT_GE(j, 0);
-  EXPECT_DOUBLE_EQ(m->jnt_range[2 * j + 1], humanoid_skeleton().joint_upper(1, hb::LKnee));
+  EXPECT_DOUBLE_EQ(m->jnt_range[2 * j + 1], humanoid_skeleton().dof_upper(humanoid_skeleton().dof_offset(hb::LKnee) + 1));
   EXPECT_DOUBLE_EQ(m->opt.timestep, 1.0 / 60.0);
   EXPECT_EQ(m->opt.integrator, mjINT_EULER);
   EXPECT_EQ(m->opt.solver, mjSOL_NEWTON);

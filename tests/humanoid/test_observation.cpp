@@ -14,7 +14,7 @@ KinematicState random_state(Rng& r) {
   st.root_rot = Quat(Eigen::AngleAxisd(r.uniform(-3, 3), Vec3::UnitZ())) *
                 Quat(Eigen::AngleAxisd(r.uniform(-0.5, 0.5), Vec3(r.normal(), r.normal(), 0).normalized()));
   for (int i = 1; i < s.num_bodies(); ++i)
-    for (int k = 0; k < 3; ++k) st.q[Skeleton::dof_offset(i) + k] = r.uniform(s.joint_lower(k, i), s.joint_upper(k, i));
+    for (int k = 0; k < 3; ++k) st.q[s.dof_offset(i) + k] = r.uniform(s.dof_lower(s.dof_offset(i) + k), s.dof_upper(s.dof_offset(i) + k));
   for (Index k = 0; k < st.qd.size(); ++k) st.qd[k] = r.normal(0, 2);
   st.root_lin_vel = Vec3(r.normal(), r.normal(), r.normal());
   st.root_ang_vel = Vec3(r.normal(), r.normal(), r.normal());
@@ -37,7 +37,7 @@ TEST(Observation, KnownPoseMatchesHandComputedValues) {
   KinematicState st = KinematicState::zero(s);
   st.root_pos = Vec3(1.0, 2.0, 0.9);
   st.root_rot = Quat(Eigen::AngleAxisd(M_PI / 2, Vec3::UnitZ()));  // facing world +y
-  st.q[Skeleton::dof_offset(hb::LKnee) + 1] = M_PI / 2;               // left knee flexed 90°
+  st.q[humanoid_skeleton().dof_offset(hb::LKnee) + 1] = M_PI / 2;               // left knee flexed 90°
   st.root_lin_vel = Vec3(0, 1, 0);                                    // walking forward at 1 m/s
   st.root_ang_vel = Vec3(0, 0, 0.5);                                  // turning left
   const VectorXf obs = compute_observation(s, forward_kinematics(s, st));

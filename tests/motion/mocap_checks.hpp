@@ -112,7 +112,7 @@ inline MocapCheck check_retarget(const bvh::Motion& m, const JointMap& map, cons
         knee_fwd += perp.dot(fwd) > 0;
         ++r.bent_knee_frames;
       }
-      const Vec3 q = clip.q.col(k).segment<3>(Skeleton::dof_offset(knee));
+      const Vec3 q = clip.q.col(k).segment<3>(humanoid_skeleton().dof_offset(knee));
       flex += q.y();
       off += std::abs(q.x()) + std::abs(q.z());
       toe_fwd += (bs.pos.col(toe) - an).dot(fwd) > 0;

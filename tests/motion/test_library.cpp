@@ -28,7 +28,7 @@ MotionClip closed_form_clip() {
     const double time = t / c.fps;
     c.root_pos.col(t) = Vec3(kV * time, 0, 0.9);
     c.set_rot(t, Quat(Eigen::AngleAxisd(kYawRate * time, Vec3::UnitZ())));
-    c.q(Skeleton::dof_offset(hb::LKnee) + 1, t) = kA * std::sin(2 * kPi * kF * time);
+    c.q(humanoid_skeleton().dof_offset(hb::LKnee) + 1, t) = kA * std::sin(2 * kPi * kF * time);
   }
   return c;
 }
@@ -37,7 +37,7 @@ MotionClip closed_form_clip() {
 TEST(MotionLibrary, InterpolationAndVelocitiesMatchClosedForms) {
   MotionLibrary lib;
   lib.add(closed_form_clip());
-  const int knee = Skeleton::dof_offset(hb::LKnee) + 1;
+  const int knee = humanoid_skeleton().dof_offset(hb::LKnee) + 1;
   const double h = 1.0 / 30, w = 2 * kPi * kF;
   for (double t : {0.5 + 0.3 * h, 0.77, 1.2345, 1.5 + 0.5 * h}) {
     SCOPED_TRACE(t);
@@ -189,14 +189,14 @@ TEST(Blend, TakesBsJointsExactlyOnMaskedPartsAndAsElsewhere) {
   EXPECT_EQ(m.root_rot, a.root_rot);
   for (int t = 0; t < m.num_frames(); ++t)
     for (int body = 1; body < s.num_bodies(); ++body) {
-      const int k = Skeleton::dof_offset(body);
+      const int k = humanoid_skeleton().dof_offset(body);
       const Vec3 expect = mask.has(s.parts[body]) ? Vec3(b.q.col(t).segment<3>(k)) : Vec3(a.q.col(t).segment<3>(k));
       EXPECT_EQ(Vec3(m.q.col(t).segment<3>(k)), expect) << t << " " << s.names[body];
     }
   // B shorter than A loops: the jump (not looping, 2.3 s) under a long A with loop_b
   MotionClip longer = synthetic_walk();
   longer = blend_parts(longer, synthetic_arm_circles(), mask, s, {.b_offset = 0.5});
-  const int k = Skeleton::dof_offset(hb::LShoulder);
+  const int k = humanoid_skeleton().dof_offset(hb::LShoulder);
   const MotionClip arms = synthetic_arm_circles();
   // A frame 3 ↔ B time 0.1 + 0.5 = 0.6 s = B frame 18
   EXPECT_EQ(Vec3(longer.q.col(3).segment<3>(k)), Vec3(arms.q.col(18).segment<3>(k)));

@@ -197,7 +197,7 @@ TEST(MocapSets, HeadingCalibrationRecoversAKnownSkeleton) {
   EXPECT_LT(k.bone_mean_deg, 0.5);
   EXPECT_GT(k.knee_forward, 0.99);
   for (int b : {hb::LHip, hb::RHip, hb::LKnee, hb::RKnee, hb::LAnkle, hb::RAnkle}) {
-    const auto d = (back.q.middleRows(Skeleton::dof_offset(b), 3) - c.q.middleRows(Skeleton::dof_offset(b), 3));
+    const auto d = (back.q.middleRows(humanoid_skeleton().dof_offset(b), 3) - c.q.middleRows(humanoid_skeleton().dof_offset(b), 3));
     EXPECT_LT(d.cwiseAbs().mean(), 0.05) << humanoid_skeleton().names[b];
   }
 }

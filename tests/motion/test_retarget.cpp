@@ -62,7 +62,7 @@ TEST(Retarget, AmassOfTheHumanoidIsIdentity) {
   for (int t = 0; t < c.num_frames(); ++t) {
     a.poses.col(t).segment<3>(0) = quat_log(c.rot(t) * Cq);
     for (int b = 1; b < 22; ++b) {
-      const Quat L = joint_rotation(c.q.col(t).segment<3>(Skeleton::dof_offset(b)));
+      const Quat L = joint_rotation(c.q.col(t).segment<3>(humanoid_skeleton().dof_offset(b)));
       a.poses.col(t).segment<3>(3 * b) = quat_log(Cq.conjugate() * L * Cq);
     }
   }
@@ -172,10 +172,10 @@ TEST(Quality, SyntheticClipsAreClean) {
 TEST(Quality, DetectsPenetrationViolationsAndSelfCollision) {
   MotionClip c = synthetic_arm_circles();
   c.root_pos.row(2).array() -= 0.05;  // sink 5 cm
-  c.q(Skeleton::dof_offset(hb::LKnee) + 1, 0) = 3.0;  // beyond the knee limit (2.7)
+  c.q(humanoid_skeleton().dof_offset(hb::LKnee) + 1, 0) = 3.0;  // beyond the knee limit (2.7)
   // frame 1: left arm folded through the chest
-  c.q.col(1).segment<3>(Skeleton::dof_offset(hb::LShoulder)) = Vec3(0, 0, -2.5);
-  c.q.col(1).segment<3>(Skeleton::dof_offset(hb::LElbow)) = Vec3(0, 0, -2.8);
+  c.q.col(1).segment<3>(humanoid_skeleton().dof_offset(hb::LShoulder)) = Vec3(0, 0, -2.5);
+  c.q.col(1).segment<3>(humanoid_skeleton().dof_offset(hb::LElbow)) = Vec3(0, 0, -2.8);
   const QualityReport q = motion_quality(c);
   EXPECT_NEAR(q.penetration_max, 0.05, 1e-6);
   EXPECT_NEAR(q.limit_violation_max, 0.3, 1e-9);

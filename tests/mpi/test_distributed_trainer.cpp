@@ -36,10 +36,10 @@ RealWindowSampler swing_windows(const Skeleton& skel) {
         const double t = t0 + f / 30.0;
         KinematicState s = KinematicState::zero(skel);
         s.root_pos.z() = TinyWalkerSim::kHeight;
-        s.q[Skeleton::dof_offset(4)] = 0.4 * std::sin(4 * t);
-        s.q[Skeleton::dof_offset(5)] = -0.4 * std::sin(4 * t);
-        s.qd[Skeleton::dof_offset(4)] = 1.6 * std::cos(4 * t);
-        s.qd[Skeleton::dof_offset(5)] = -1.6 * std::cos(4 * t);
+        s.q[skel.dof_offset(4)] = 0.4 * std::sin(4 * t);
+        s.q[skel.dof_offset(5)] = -0.4 * std::sin(4 * t);
+        s.qd[skel.dof_offset(4)] = 1.6 * std::cos(4 * t);
+        s.qd[skel.dof_offset(5)] = -1.6 * std::cos(4 * t);
         const BodyStates b = forward_kinematics(skel, s);
         VectorXf o(d);
         compute_observation(skel, b, o);

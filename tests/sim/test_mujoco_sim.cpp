@@ -20,7 +20,7 @@ MatrixXf random_targets(const Skeleton& s, Index num_envs, Rng& r) {
   for (Index e = 0; e < num_envs; ++e)
     for (int i = 1; i < s.num_bodies(); ++i)
       for (int k = 0; k < 3; ++k)
-        t(Skeleton::dof_offset(i) + k, e) = static_cast<float>(r.uniform(s.joint_lower(k, i), s.joint_upper(k, i)));
+        t(s.dof_offset(i) + k, e) = static_cast<float>(r.uniform(s.dof_lower(s.dof_offset(i) + k), s.dof_upper(s.dof_offset(i) + k)));
   return t;
 }
 /// A smooth PD target at time t (s), (63 × 1): every hinge swings sinusoidally about 0 with
@@ -30,10 +30,10 @@ MatrixXf smooth_target(const Skeleton& s, double t, double arm_amp, double other
   MatrixXf q(s.num_dofs(), 1);
   for (int i = 1; i < s.num_bodies(); ++i)
     for (int k = 0; k < 3; ++k) {
-      const int d = Skeleton::dof_offset(i) + k;
+      const int d = s.dof_offset(i) + k;
       const bool arm = s.parts[static_cast<std::size_t>(i)] == BodyPart::LeftArm ||
                        s.parts[static_cast<std::size_t>(i)] == BodyPart::RightArm;
-      const double amp = (arm ? arm_amp : other_amp) * std::min(-s.joint_lower(k, i), s.joint_upper(k, i));
+      const double amp = (arm ? arm_amp : other_amp) * std::min(-s.dof_lower(s.dof_offset(i) + k), s.dof_upper(s.dof_offset(i) + k));
       q(d, 0) = static_cast<float>(amp * std::sin(2 * M_PI * (0.5 + 0.017 * d) * t + 0.37 * d));
     }
   return q;
@@ -206,10 +206,10 @@ TEST(MujocoHumanoidSim, ResetPlacesTheRequestedState) {
   KinematicState pose = humanoid_standing_pose();
   pose.root_pos = Vec3(3, -2, 1.2);
   pose.root_rot = Quat(Eigen::AngleAxisd(1.0, Vec3::UnitZ()));
-  pose.q[Skeleton::dof_offset(hb::LElbow) + 2] = -1.0;
+  pose.q[humanoid_skeleton().dof_offset(hb::LElbow) + 2] = -1.0;
   pose.root_ang_vel = Vec3(0, 0, 2.0);
   sim.reset(0, pose);
-  EXPECT_NEAR(sim.joint_angles(0)[Skeleton::dof_offset(hb::LElbow) + 2], -1.0, 1e-12);
+  EXPECT_NEAR(sim.joint_angles(0)[humanoid_skeleton().dof_offset(hb::LElbow) + 2], -1.0, 1e-12);
   EXPECT_LT((sim.body_states(0).pos.col(0) - pose.root_pos).norm(), 1e-12);
   EXPECT_LT((sim.body_states(0).ang_vel.col(0) - Vec3(0, 0, 2.0)).norm(), 1e-9);
   EXPECT_TRUE(std::all_of(sim.contacts(0).begin(), sim.contacts(0).end(), [](auto c) { return c == 0; }));  // airborne

@@ -25,8 +25,7 @@ Skeleton small_chain() {
       0, 0.5, 0.4, 0,       //
       0, 0, 0, -0.8;
   s.parts = {BodyPart::Trunk, BodyPart::LeftArm, BodyPart::LeftArm, BodyPart::LeftLeg};
-  s.joint_lower = Matrix3X::Constant(3, 4, -3.0);
-  s.joint_upper = Matrix3X::Constant(3, 4, 3.0);
+  s.set_xyz_hinges(Matrix3X::Constant(3, 4, -3.0), Matrix3X::Constant(3, 4, 3.0));
   return s;
 }
 

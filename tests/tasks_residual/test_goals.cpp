@@ -21,7 +21,7 @@ Trajectory pose_trajectory(double yaw, const Vec3& shift, double elbow, Index fr
     KinematicState s = humanoid_standing_pose();
     s.root_pos += shift;
     s.root_rot = Quat(Eigen::AngleAxisd(yaw, Vec3::UnitZ()));
-    s.q[Skeleton::dof_offset(skel.index_of("L_Elbow")) + 2] = elbow * static_cast<double>(i);
+    s.q[humanoid_skeleton().dof_offset(skel.index_of("L_Elbow")) + 2] = elbow * static_cast<double>(i);
     t.root_pos.col(i) = s.root_pos;
     t.root_rot[static_cast<std::size_t>(i)] = s.root_rot;
     t.q.col(i) = s.q;
@@ -68,17 +68,17 @@ TEST(Goals, RotationErrorAndRewardHaveClosedForms) {
   KinematicState s = humanoid_standing_pose();
   s.root_rot = Quat(Eigen::AngleAxisd(0.7, Vec3::UnitZ()));
   const int elbow = skel.index_of("L_Elbow");
-  s.q[Skeleton::dof_offset(elbow) + 1] = 0.3;
+  s.q[humanoid_skeleton().dof_offset(elbow) + 1] = 0.3;
   const BodyStates sim = forward_kinematics(skel, s);
   VectorXd target = s.q;
   EXPECT_NEAR(rotation_error_sq(skel, bodies, target, sim), 0.0, 1e-12);
   EXPECT_NEAR(tracking_reward(skel, bodies, target, sim), 1.0, 1e-12);
-  target[Skeleton::dof_offset(elbow) + 1] = 0.3 + 0.4;  // 0.4 rad off on one hinge
+  target[humanoid_skeleton().dof_offset(elbow) + 1] = 0.3 + 0.4;  // 0.4 rad off on one hinge
   EXPECT_NEAR(rotation_error_sq(skel, bodies, target, sim), 0.16, 1e-9);
   EXPECT_NEAR(tracking_reward(skel, bodies, target, sim), std::exp(-0.16), 1e-9);
   // a leg error is invisible to the arms' reward
   VectorXd t2 = s.q;
-  t2[Skeleton::dof_offset(skel.index_of("L_Knee"))] += 1.0;
+  t2[humanoid_skeleton().dof_offset(skel.index_of("L_Knee"))] += 1.0;
   EXPECT_NEAR(rotation_error_sq(skel, bodies, t2, sim), 0.0, 1e-12);
 }
 
@@ -116,7 +116,7 @@ struct ElbowGenerator {
   Trajectory generate(const TextCondition& c, const Trajectory& h, Rng& rng) const {
     const double rate = c.text == "wave hands" ? 0.1 : 0.2;
     Trajectory t = Trajectory::zeros(skeleton(), 4);
-    const int k = Skeleton::dof_offset(skeleton().index_of("L_Elbow")) + 2;
+    const int k = humanoid_skeleton().dof_offset(skeleton().index_of("L_Elbow")) + 2;
     for (Index i = 0; i < 4; ++i) {
       t.root_pos.col(i) = h.root_pos.col(1);
       t.root_rot[static_cast<std::size_t>(i)] = h.root_rot[1];
@@ -137,7 +137,7 @@ TEST(Goals, GoalBufferHoldsGeneratedFuturesOfTheRequestedLength) {
   const GoalBuffer::HistorySource hist = [](Rng&) { return pose_trajectory(0.3, Vec3(1, 0, 0), 0.0, 2); };
   buf.refill(g, {"wave hands", "raise arms"}, hist, 6, 10, rng);
   ASSERT_EQ(buf.trajectories.size(), 6u);
-  const int k = Skeleton::dof_offset(humanoid_skeleton().index_of("L_Elbow")) + 2;
+  const int k = humanoid_skeleton().dof_offset(humanoid_skeleton().index_of("L_Elbow")) + 2;
   for (std::size_t i = 0; i < 6; ++i) {
     EXPECT_EQ(buf.trajectories[i].num_frames(), 10);
     const double rate = buf.texts[i] == "wave hands" ? 0.1 : 0.2;

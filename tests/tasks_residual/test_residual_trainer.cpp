@@ -43,7 +43,7 @@ MotionClip swing(const Skeleton& skel, std::vector<int> bodies, double amp, cons
   for (int t = 0; t < 61; ++t) {
     c.root_pos(2, t) = TinyWalkerSim::kHeight;
     for (std::size_t i = 0; i < bodies.size(); ++i)
-      c.q(Skeleton::dof_offset(bodies[i]), t) = (i % 2 ? -amp : amp) * std::sin(2 * M_PI * t / 60.0);
+      c.q(skel.dof_offset(bodies[i]), t) = (i % 2 ? -amp : amp) * std::sin(2 * M_PI * t / 60.0);
   }
   return c;
 }
@@ -102,8 +102,8 @@ struct TinyGenerator {
       t.root_pos.col(i) = h.root_pos.col(0);
       t.root_rot[static_cast<std::size_t>(i)] = h.root_rot[0];
       t.q.col(i) = h.q.col(0);
-      t.q(Skeleton::dof_offset(2), i) = a;
-      t.q(Skeleton::dof_offset(3), i) = -a;
+      t.q(skel.dof_offset(2), i) = a;
+      t.q(skel.dof_offset(3), i) = -a;
     }
     tracking::compute_body_positions(skel, t);
     return t;

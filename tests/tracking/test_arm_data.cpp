@@ -38,7 +38,7 @@ TEST(ArmData, SwitchedBlendFadesTheArmsOnlyAndBack) {
   for (int t : {0, 5, 9, 15, 21, 27}) {  // 0, 0.17, 0.3, 0.5, 0.7, 0.9 s
     const double w = sw.weight(t / walk.fps);
     for (int b = 1; b < skel.num_bodies(); ++b) {
-      const int k = Skeleton::dof_offset(b);
+      const int k = humanoid_skeleton().dof_offset(b);
       const Vec3 got = s.q.col(t).segment<3>(k);
       if (!is_arm_joint(skel, b)) {
         EXPECT_EQ(got, Vec3(walk.q.col(t).segment<3>(k))) << "body " << b << " frame " << t;
@@ -49,7 +49,7 @@ TEST(ArmData, SwitchedBlendFadesTheArmsOnlyAndBack) {
     }
   }
   // the arms really change between the walk's swing and the circles
-  const int k = Skeleton::dof_offset(skel.index_of("L_Shoulder"));
+  const int k = humanoid_skeleton().dof_offset(skel.index_of("L_Shoulder"));
   EXPECT_GT((full.q.col(15).segment<3>(k) - walk.q.col(15).segment<3>(k)).norm(), 0.05);
   EXPECT_THROW(blend_parts_switched(walk, arms, m, skel, PartSwitch{2.0, 1.0, 0.3}), Error);
   EXPECT_THROW(blend_parts_switched(walk, arms, m, skel, PartSwitch{0.0, INFINITY, -1.0}), Error);

@@ -25,14 +25,14 @@ inline Trajectory make_motion(Index n, double speed, double turn, double arm, do
     t.root_pos.col(i) = Vec3(x, y, 0.9 + 0.02 * std::sin(2 * w));
     t.root_rot[static_cast<std::size_t>(i)] = Quat(Eigen::AngleAxisd(yaw, Vec3::UnitZ())) *
                                               Quat(Eigen::AngleAxisd(0.05 * std::sin(w), Vec3::UnitX()));
-    t.q(Skeleton::dof_offset(ls) + 0, i) = arm * std::sin(w);
-    t.q(Skeleton::dof_offset(ls) + 1, i) = 0.5 * arm * std::cos(w);
-    t.q(Skeleton::dof_offset(rs) + 0, i) = -arm * std::sin(w);
-    t.q(Skeleton::dof_offset(rs) + 2, i) = 0.3 * arm * std::sin(w);
-    t.q(Skeleton::dof_offset(le) + 2, i) = 0.5 + 0.4 * std::sin(w + 0.5);
-    t.q(Skeleton::dof_offset(re) + 2, i) = -0.5 - 0.4 * std::sin(w + 0.5);
-    t.q(Skeleton::dof_offset(lh) + 1, i) = 0.4 * std::sin(w);
-    t.q(Skeleton::dof_offset(rh) + 1, i) = -0.4 * std::sin(w);
+    t.q(humanoid_skeleton().dof_offset(ls) + 0, i) = arm * std::sin(w);
+    t.q(humanoid_skeleton().dof_offset(ls) + 1, i) = 0.5 * arm * std::cos(w);
+    t.q(humanoid_skeleton().dof_offset(rs) + 0, i) = -arm * std::sin(w);
+    t.q(humanoid_skeleton().dof_offset(rs) + 2, i) = 0.3 * arm * std::sin(w);
+    t.q(humanoid_skeleton().dof_offset(le) + 2, i) = 0.5 + 0.4 * std::sin(w + 0.5);
+    t.q(humanoid_skeleton().dof_offset(re) + 2, i) = -0.5 - 0.4 * std::sin(w + 0.5);
+    t.q(humanoid_skeleton().dof_offset(lh) + 1, i) = 0.4 * std::sin(w);
+    t.q(humanoid_skeleton().dof_offset(rh) + 1, i) = -0.4 * std::sin(w);
   }
   compute_body_positions(skel, t);
   return t;

@@ -35,10 +35,10 @@ RealWindowSampler swing_windows(const Skeleton& skel) {
         const double t = t0 + f / 30.0;
         KinematicState s = KinematicState::zero(skel);
         s.root_pos.z() = TinyWalkerSim::kHeight;
-        s.q[Skeleton::dof_offset(4)] = 0.4 * std::sin(4 * t);
-        s.q[Skeleton::dof_offset(5)] = -0.4 * std::sin(4 * t);
-        s.qd[Skeleton::dof_offset(4)] = 1.6 * std::cos(4 * t);
-        s.qd[Skeleton::dof_offset(5)] = -1.6 * std::cos(4 * t);
+        s.q[skel.dof_offset(4)] = 0.4 * std::sin(4 * t);
+        s.q[skel.dof_offset(5)] = -0.4 * std::sin(4 * t);
+        s.qd[skel.dof_offset(4)] = 1.6 * std::cos(4 * t);
+        s.qd[skel.dof_offset(5)] = -1.6 * std::cos(4 * t);
         const BodyStates b = forward_kinematics(skel, s);
         VectorXf o(d);
         compute_observation(skel, b, o);
@@ -330,9 +330,9 @@ TEST(BaseTrainer, NormalisedActionsAreResolvedSavedAndResumed) {
   ASSERT_EQ(static_cast<Index>(cfg.net.action_offset_rad.size()), skel.num_dofs());
   for (int b = 1; b < skel.num_bodies(); ++b)
     for (int k = 0; k < 3; ++k) {
-      const auto i = static_cast<std::size_t>(Skeleton::dof_offset(b) + k);
-      EXPECT_DOUBLE_EQ(cfg.net.action_offset_rad[i], 0.5 * (skel.joint_lower(k, b) + skel.joint_upper(k, b)));
-      EXPECT_DOUBLE_EQ(cfg.net.action_scale_rad[i], std::max(0.05, 0.5 * (skel.joint_upper(k, b) - skel.joint_lower(k, b))));
+      const auto i = static_cast<std::size_t>(skel.dof_offset(b) + k);
+      EXPECT_DOUBLE_EQ(cfg.net.action_offset_rad[i], 0.5 * (skel.dof_lower(skel.dof_offset(b) + k) + skel.dof_upper(skel.dof_offset(b) + k)));
+      EXPECT_DOUBLE_EQ(cfg.net.action_scale_rad[i], std::max(0.05, 0.5 * (skel.dof_upper(skel.dof_offset(b) + k) - skel.dof_lower(skel.dof_offset(b) + k))));
     }
   const auto again = cfg;
   resolve_action_space(cfg, skel, nullptr);  // resolved vectors are kept (a resumed run)

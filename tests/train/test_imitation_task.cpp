@@ -41,8 +41,8 @@ MatrixXf balance_actions(const TinyWalkerSim& sim) {
     const double phi = std::atan2(R(0, 2), R(2, 2));
     const double phid = sim.body_states(e).ang_vel(1, 0);
     const float u = static_cast<float>(0.5 * phi + 0.15 * phid);
-    a(Skeleton::dof_offset(4) + 1, static_cast<Index>(e)) = u;
-    a(Skeleton::dof_offset(5) + 1, static_cast<Index>(e)) = u;
+    a(sim.skeleton().dof_offset(4) + 1, static_cast<Index>(e)) = u;
+    a(sim.skeleton().dof_offset(5) + 1, static_cast<Index>(e)) = u;
   }
   return a;
 }

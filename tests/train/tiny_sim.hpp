@@ -32,8 +32,7 @@ inline Skeleton tiny_walker_skeleton() {
   s.offsets.col(3) << 0, -0.25, 0.45;
   s.offsets.col(4) << 0, 0.1, -0.1;
   s.offsets.col(5) << 0, -0.1, -0.1;
-  s.joint_lower = Matrix3X::Constant(3, 6, -2.0);
-  s.joint_upper = Matrix3X::Constant(3, 6, 2.0);
+  s.set_xyz_hinges(Matrix3X::Constant(3, 6, -2.0), Matrix3X::Constant(3, 6, 2.0));
   s.validate();
   return s;
 }
@@ -75,12 +74,12 @@ class TinyWalkerSim {
       const VectorXd t = targets.col(static_cast<Index>(k)).cast<double>();
       e.qd = 8.0 * (t - e.q);
       e.q += kDt * e.qd;
-      const double u = 0.5 * (e.q[Skeleton::dof_offset(4) + 1] + e.q[Skeleton::dof_offset(5) + 1]);
+      const double u = 0.5 * (e.q[skel_.dof_offset(4) + 1] + e.q[skel_.dof_offset(5) + 1]);
       const double phidd = 9.81 / kHeight * std::sin(e.phi) - 30.0 * u - 2.0 * e.phid;
       e.phid += kDt * phidd;
       e.phi += kDt * e.phid;
       e.phi = std::clamp(e.phi, -1.5, 1.5);
-      e.vx = 0.5 * (e.qd[Skeleton::dof_offset(4)] - e.qd[Skeleton::dof_offset(5)]);
+      e.vx = 0.5 * (e.qd[skel_.dof_offset(4)] - e.qd[skel_.dof_offset(5)]);
       e.x += kDt * e.vx;
       refresh(e);
     }

@@ -23,7 +23,7 @@ using namespace maskadapt;
 namespace {
 
 void set_joint(KinematicState& s, int body, double x, double y, double z) {
-  s.q.segment<3>(Skeleton::dof_offset(body)) = Vec3(x, y, z);
+  s.q.segment<3>(humanoid_skeleton().dof_offset(body)) = Vec3(x, y, z);
 }
 
 // A stylised walk at ~1 m/s: hips and knees swing in antiphase, arms swing (variant 0) or wave

@@ -104,13 +104,13 @@ struct HumanoidDescription {
   /// PD stiffness of every DoF, (num_dofs).
   VectorXd dof_kp() const {
     VectorXd k(skeleton.num_dofs());
-    for (int i = 1; i < skeleton.num_bodies(); ++i) k.segment<3>(Skeleton::dof_offset(i)).setConstant(bodies[i].kp);
+    for (int i = 1; i < skeleton.num_bodies(); ++i) k.segment(skeleton.dof_offset(i), skeleton.num_dofs_of(i)).setConstant(bodies[i].kp);
     return k;
   }
   /// PD damping of every DoF, (num_dofs).
   VectorXd dof_kd() const {
     VectorXd k(skeleton.num_dofs());
-    for (int i = 1; i < skeleton.num_bodies(); ++i) k.segment<3>(Skeleton::dof_offset(i)).setConstant(bodies[i].kd);
+    for (int i = 1; i < skeleton.num_bodies(); ++i) k.segment(skeleton.dof_offset(i), skeleton.num_dofs_of(i)).setConstant(bodies[i].kd);
     return k;
   }
 };
@@ -176,11 +176,10 @@ inline HumanoidDescription make_humanoid_description() {
   // Joint limits (rad), hinges (x roll, y pitch, z yaw) in the body frame. Sign conventions at
   // the zero pose: +y pitch swings a limb that points down backwards (hip extension, knee
   // flexion) and bends the spine forward; +x roll lifts the left arm / abducts the left leg.
-  s.joint_lower.setZero(3, nb);
-  s.joint_upper.setZero(3, nb);
+  Matrix3X lower = Matrix3X::Zero(3, nb), upper = Matrix3X::Zero(3, nb);  // (3 × num_bodies), column 0 unused
   auto lim = [&](int b, Vec3 lo, Vec3 hi) {
-    s.joint_lower.col(b) = lo;
-    s.joint_upper.col(b) = hi;
+    lower.col(b) = lo;
+    upper.col(b) = hi;
   };
   lim(hb::LHip, {-0.6, -2.2, -1.0}, {1.3, 0.7, 1.0});
   lim(hb::RHip, {-1.3, -2.2, -1.0}, {0.6, 0.7, 1.0});
@@ -196,6 +195,7 @@ inline HumanoidDescription make_humanoid_description() {
   lim(hb::LElbow, {-0.4, -1.8, -2.8}, {0.4, 1.8, 0.1});
   lim(hb::RElbow, {-0.4, -1.8, -0.1}, {0.4, 1.8, 2.8});
   for (int b : {hb::LWrist, hb::RWrist}) lim(b, {-0.9, -1.2, -1.2}, {0.9, 1.2, 1.2});
+  s.set_xyz_hinges(lower, upper);
   s.validate();
 
   // Geoms and masses (kg; segment fractions after de Leva 1996 for a ~68 kg adult).
@@ -282,8 +282,7 @@ inline KinematicState humanoid_standing_pose() {
 /// Part of every action DoF, (num_dofs): the part of the body the hinge moves.
 inline std::vector<BodyPart> action_parts(const Skeleton& skel) {
   std::vector<BodyPart> parts(static_cast<std::size_t>(skel.num_dofs()));
-  for (int i = 1; i < skel.num_bodies(); ++i)
-    for (int k = 0; k < 3; ++k) parts[static_cast<std::size_t>(Skeleton::dof_offset(i) + k)] = skel.parts[i];
+  for (int k = 0; k < skel.num_dofs(); ++k) parts[static_cast<std::size_t>(k)] = skel.parts[static_cast<std::size_t>(skel.dof_body(k))];
   return parts;
 }
 

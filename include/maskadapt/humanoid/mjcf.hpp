@@ -60,6 +60,7 @@ inline std::string humanoid_mjcf(const HumanoidDescription& desc) {
   using detail::mjcf_num, detail::mjcf_vec, detail::mjcf_physics;
   const Skeleton& s = desc.skeleton;
   s.validate();
+  s.require_xyz_layout("humanoid_mjcf (joints named <body>_x/_y/_z)");
   require(static_cast<int>(desc.bodies.size()) == s.num_bodies(), "one BodyDescription per body expected",
           {{}, {}, "bodies"});
   std::string x;
@@ -88,7 +89,7 @@ inline std::string humanoid_mjcf(const HumanoidDescription& desc) {
       static const char* suffix[3] = {"_x", "_y", "_z"};
       for (int k = 0; k < 3; ++k)
         x += ind + "  <joint name=\"" + s.names[i] + suffix[k] + "\" type=\"hinge\" axis=\"" + axes[k] +
-             "\" limited=\"true\" range=\"" + mjcf_num(s.joint_lower(k, i)) + " " + mjcf_num(s.joint_upper(k, i)) +
+             "\" limited=\"true\" range=\"" + mjcf_num(s.dof_lower(s.dof_offset(i) + k)) + " " + mjcf_num(s.dof_upper(s.dof_offset(i) + k)) +
              "\" damping=\"" + mjcf_num(b.kd) + "\" armature=\"" + mjcf_num(b.armature) + "\"/>\n";
     }
     int g = 0;
@@ -121,7 +122,7 @@ inline std::string humanoid_mjcf(const HumanoidDescription& desc) {
       const std::string j = s.names[i] + (k == 0 ? "_x" : k == 1 ? "_y" : "_z");
       x += "    <general name=\"" + j + "\" joint=\"" + j + "\" gaintype=\"fixed\" biastype=\"affine\" gainprm=\"" +
            mjcf_num(kp) + "\" biasprm=\"0 " + mjcf_num(-kp) + " 0\" ctrllimited=\"true\" ctrlrange=\"" +
-           mjcf_num(s.joint_lower(k, i)) + " " + mjcf_num(s.joint_upper(k, i)) + "\"/>\n";
+           mjcf_num(s.dof_lower(s.dof_offset(i) + k)) + " " + mjcf_num(s.dof_upper(s.dof_offset(i) + k)) + "\"/>\n";
     }
   }
   x += "  </actuator>\n";

@@ -29,6 +29,7 @@ inline MotionClip blend_parts(const MotionClip& a, const MotionClip& b, PartMask
                               const BlendOptions& opt = {}) {
   a.validate(skel);
   b.validate(skel);
+  skel.require_xyz_layout("blend_parts (interpolates x-y-z joint rotations)");
   require(std::isfinite(opt.b_offset) && std::isfinite(opt.b_speed) && opt.b_speed > 0,
           "blend offset/speed must be finite (speed > 0)", {{}, {}, "blend"});
   MotionClip out = a;
@@ -59,7 +60,7 @@ inline MotionClip blend_parts(const MotionClip& a, const MotionClip& b, PartMask
     }
     for (int body = 1; body < skel.num_bodies(); ++body) {
       if (!mask.has(skel.parts[body])) continue;
-      const int k = Skeleton::dof_offset(body);
+      const int k = skel.dof_offset(body);
       out.q.col(t).segment<3>(k) = frame >= 0 ? Vec3(bl.q.col(frame).segment<3>(k)) : Vec3(s.q.segment<3>(k));
     }
   }
@@ -99,7 +100,7 @@ inline MotionClip blend_parts_switched(const MotionClip& a, const MotionClip& b,
     const double w = sw.weight(t / a.fps);
     for (int body = 1; body < skel.num_bodies(); ++body) {
       if (!mask.has(skel.parts[body])) continue;
-      const int k = Skeleton::dof_offset(body);
+      const int k = skel.dof_offset(body);
       out.q.col(t).segment<3>(k) = (1.0 - w) * a.q.col(t).segment<3>(k) + w * out.q.col(t).segment<3>(k);
     }
   }

@@ -6,7 +6,9 @@
 /// Interpolation at time t (frame u = t·fps between frames i and i+1, weight w = u − i):
 ///  - root position: lerp; root rotation: slerp;
 ///  - each joint: slerp of the two joint rotations R_x R_y R_z, converted back to the 3-hinge
-///    angles nearest the lerped angles (continuous; equals the lerp for single-axis motion);
+///    angles nearest the lerped angles (continuous; equals the lerp for single-axis motion), so
+///    clips here are on skeletons with the x-y-z layout (Skeleton::has_xyz_layout), as the
+///    humanoid's; MotionLibrary refuses other skeletons;
 /// Velocities: central differences over ±h with h = 1/fps (one frame each side; one-sided at the
 /// ends of a non-looping clip): v = (p(t+h) − p(t−h)) / 2h, ω_root = log(R(t+h) R(t−h)ᵀ) / 2h,
 /// q̇ = wrap(q(t+h) − q(t−h)) / 2h; body velocities follow by forward_kinematics.
@@ -145,7 +147,10 @@ struct ClipTime {
 
 class MotionLibrary {
  public:
-  explicit MotionLibrary(const Skeleton& skel = humanoid_skeleton()) : skel_(skel) { skel_.validate(); }
+  explicit MotionLibrary(const Skeleton& skel = humanoid_skeleton()) : skel_(skel) {
+    skel_.validate();
+    skel_.require_xyz_layout("MotionLibrary (clips interpolate x-y-z joint rotations)");
+  }
 
   /// Adds a clip (validated against the skeleton) with a sampling weight > 0; returns its index.
   int add(MotionClip clip, double weight = 1.0) {

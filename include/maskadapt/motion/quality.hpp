@@ -133,15 +133,14 @@ inline QualityReport motion_quality(const MotionClip& clip, const HumanoidDescri
     const double pen = std::max(0.0, -geometry::lowest_point(d, bs));
     r.penetration_mean += pen / T;
     r.penetration_max = std::max(r.penetration_max, pen);
-    for (int b = 1; b < s.num_bodies(); ++b)
-      for (int k = 0; k < 3; ++k) {
-        const double a = clip.q(Skeleton::dof_offset(b) + k, t);
-        const double ex = std::max(a - s.joint_upper(k, b), s.joint_lower(k, b) - a);
-        if (ex > 1e-9) {
-          ++viol_n;
-          r.limit_violation_max = std::max(r.limit_violation_max, ex);
-        }
+    for (int k = 0; k < s.num_dofs(); ++k) {
+      const double a = clip.q(k, t);
+      const double ex = std::max(a - s.dof_upper(k), s.dof_lower(k) - a);
+      if (ex > 1e-9) {
+        ++viol_n;
+        r.limit_violation_max = std::max(r.limit_violation_max, ex);
       }
+    }
     geometry::world_capsules(d, bs, caps);
     for (auto [i, j] : pairs)
       if (geometry::penetration(caps[i], caps[j]) > opt.collision_depth) {

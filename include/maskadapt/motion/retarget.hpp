@@ -338,6 +338,7 @@ inline Quat min_rotation(const Vec3& a, const Vec3& b) { return Quat::FromTwoVec
 inline MotionClip finish(const HumanoidSequence& seq, const HumanoidDescription& desc, const RetargetOptions& opt,
                          RetargetReport& rep, const std::string& file) {
   const Skeleton& skel = desc.skeleton;
+  skel.require_xyz_layout("retargeting (joint angles from x-y-z rotations)");
   const int nb = skel.num_bodies();
   const int T = seq.num_frames();
   require(T >= 1, "no frames to retarget", {file, std::nullopt, "frames"});
@@ -361,13 +362,14 @@ inline MotionClip finish(const HumanoidSequence& seq, const HumanoidDescription&
     for (int b = 1; b < nb; ++b) {
       const Quat L = slerp(seq.local[i0][b], seq.local[i1][b], w);
       double viol = 0;
-      const Vec3 a = joint_angles_within(L, hint[b], skel.joint_lower.col(b), skel.joint_upper.col(b), &viol);
+      const int kb = skel.dof_offset(b);
+      const Vec3 a = joint_angles_within(L, hint[b], skel.lower_limits().segment<3>(kb), skel.upper_limits().segment<3>(kb), &viol);
       if (viol > 1e-9) {
         ++clamped;
         rep.max_limit_excess = std::max(rep.max_limit_excess, viol);
       }
       hint[b] = a;
-      clip.q.col(k).segment<3>(Skeleton::dof_offset(b)) = a;
+      clip.q.col(k).segment<3>(kb) = a;
     }
   }
   rep.clamped_fraction = double(clamped) / (double(Tout) * (nb - 1));
@@ -787,7 +789,8 @@ inline MotionClip retarget_amass(const npz::AmassMotion& a, char world_up = 'z',
 
 /// The humanoid clip as BVH (joints = bodies, channels `Xrotation Yrotation Zrotation` in
 /// degrees, the root with positions). `y_up = false`: the humanoid's own Z-up frame, and the
-/// channels are exactly the hinge angles. `y_up = true` (default; what Blender's importer and most
+/// channels are exactly the hinge angles of x-y-z joints (other joints, e.g. the G1's single
+/// hinges, are written as their rotation's X·Y·Z angles). `y_up = true` (default; what Blender's importer and most
 /// BVH tools expect): the whole figure is expressed in Y-up axes facing +Z (offsets and every
 /// rotation re-expressed, R' = Cᵀ R C), so the zero-rotation pose is an upright T-pose.
 inline bvh::Motion clip_to_bvh(const MotionClip& c, const Skeleton& skel = humanoid_skeleton(), bool y_up = true) {
@@ -837,12 +840,14 @@ inline bvh::Motion clip_to_bvh(const MotionClip& c, const Skeleton& skel = human
   m.frames.resize(ch, c.num_frames());
   constexpr double deg = 180.0 / M_PI;
   std::vector<Vec3> prev(nb, Vec3::Zero());
+  std::vector<bool> xyz(nb);  // joints whose own angles are the BVH's X, Y, Z channels
+  for (int b = 1; b < nb; ++b) xyz[b] = skel.has_xyz_hinges(b);
   for (int t = 0; t < c.num_frames(); ++t) {
     m.frames.col(t).segment<3>(0) = Ct * c.root_pos.col(t);
     for (int b = 0; b < nb; ++b) {
-      const Quat L = b == 0 ? c.rot(t) : joint_rotation(c.q.col(t).segment<3>(Skeleton::dof_offset(b)));
+      const Quat L = b == 0 ? c.rot(t) : joint_rotation(skel, b, c.q.col(t));
       const Vec3 a = y_up ? joint_angles_near(Cq * L * Cq.conjugate(), prev[b])
-                          : (b == 0 ? joint_angles_near(L, prev[b]) : Vec3(c.q.col(t).segment<3>(Skeleton::dof_offset(b))));
+                          : (b == 0 || !xyz[b] ? joint_angles_near(L, prev[b]) : Vec3(c.q.col(t).segment<3>(skel.dof_offset(b))));
       prev[b] = a;
       m.frames.col(t).segment<3>(b == 0 ? 3 : first[b]) = a * deg;
     }

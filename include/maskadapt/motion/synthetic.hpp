@@ -39,21 +39,21 @@ inline double smoothstep(double x) {
 inline void set_world_rotation(const Skeleton& s, KinematicState& st, int b, const Quat& desired) {
   const BodyStates bs = forward_kinematics(s, st);
   const Quat local = bs.rot[s.parents[b]].conjugate() * desired;
-  const int k = Skeleton::dof_offset(b);
+  s.require_xyz_hinges(b, "set_world_rotation");
+  const int k = s.dof_offset(b);
   st.q.segment<3>(k) =
-      joint_angles_within(local, st.q.segment<3>(k), s.joint_lower.col(b), s.joint_upper.col(b));
+      joint_angles_within(local, st.q.segment<3>(k), s.lower_limits().segment<3>(k), s.upper_limits().segment<3>(k));
 }
 
 /// Leg IK: hip roll/pitch and knee pitch placing the ankle joint at `target` (world), Newton
 /// iterations with a finite-difference Jacobian, warm-started from the current angles.
 inline void leg_ik(const Skeleton& s, KinematicState& st, int hip, int knee, int ankle, const Vec3& target) {
-  const int kh = Skeleton::dof_offset(hip), kk = Skeleton::dof_offset(knee);
+  s.require_xyz_hinges(hip, "leg_ik");
+  s.require_xyz_hinges(knee, "leg_ik");
+  const int kh = s.dof_offset(hip), kk = s.dof_offset(knee);
   int idx[3] = {kh, kh + 1, kk + 1};
   auto clamp_limits = [&] {
-    for (int i = 0; i < 3; ++i) {
-      const int body = i < 2 ? hip : knee, axis = i < 2 ? i : 1;
-      st.q[idx[i]] = std::clamp(st.q[idx[i]], s.joint_lower(axis, body), s.joint_upper(axis, body));
-    }
+    for (int i = 0; i < 3; ++i) st.q[idx[i]] = std::clamp(st.q[idx[i]], s.dof_lower(idx[i]), s.dof_upper(idx[i]));
     st.q[kk + 1] = std::max(st.q[kk + 1], 0.02);  // keep the knee on its forward-bending branch
   };
   BodyStates bs;
@@ -82,8 +82,8 @@ inline void arms_down(const Skeleton& s, KinematicState& st, const Quat& heading
                      heading * Quat(Eigen::AngleAxisd(-swing_left, Vec3::UnitY())) * Quat(Eigen::AngleAxisd(-1.4, Vec3::UnitX())));
   set_world_rotation(s, st, hb::RShoulder,
                      heading * Quat(Eigen::AngleAxisd(-swing_right, Vec3::UnitY())) * Quat(Eigen::AngleAxisd(1.4, Vec3::UnitX())));
-  st.q[Skeleton::dof_offset(hb::LElbow) + 2] = -elbow;
-  st.q[Skeleton::dof_offset(hb::RElbow) + 2] = elbow;
+  st.q[s.dof_offset(hb::LElbow) + 2] = -elbow;
+  st.q[s.dof_offset(hb::RElbow) + 2] = elbow;
 }
 
 /// Feet flat (world rotation = heading) unless `pitch` tilts them (rad, + = toes down).
@@ -128,7 +128,7 @@ inline MotionClip synthetic_walk(double speed = 0.9, double period = 1.0) {
   const double stride = speed * period, duty = 0.6, ah = ankle_height();
   const BodyStates zero = forward_kinematics(s, KinematicState::zero(s));
   KinematicState st = KinematicState::zero(s);
-  for (int b : {hb::LKnee, hb::RKnee}) st.q[Skeleton::dof_offset(b) + 1] = 0.2;
+  for (int b : {hb::LKnee, hb::RKnee}) st.q[s.dof_offset(b) + 1] = 0.2;
   for (int pass = 0; pass < 2; ++pass)  // pass 0 warms the IK up so that frame 0 equals the last
     for (int t = 0; t < T; ++t) {
       const double time = t / fps, ph = time / period;
@@ -223,28 +223,28 @@ inline MotionClip synthetic_kick(double kick_time = 1.2) {
     for (int side = 0; side < 2; ++side) {
       const int h = side == 0 ? hb::LHip : hb::RHip, kn = side == 0 ? hb::LKnee : hb::RKnee;
       const int an = side == 0 ? hb::LAnkle : hb::RAnkle;
-      st.q[Skeleton::dof_offset(kn) + 1] = 0.2;
-      st.q[Skeleton::dof_offset(h) + 1] = 0.0;
+      st.q[s.dof_offset(kn) + 1] = 0.2;
+      st.q[s.dof_offset(h) + 1] = 0.0;
       leg_ik(s, st, h, kn, an, Vec3(zero.pos.col(an)) + Vec3(0, 0, stand));
     }
     const double chamber = std::sin(kPi * k);  // the knee bends quickly so the foot leaves the floor
-    st.q[Skeleton::dof_offset(hip) + 1] += -1.35 * lift;
-    st.q[Skeleton::dof_offset(knee) + 1] += 1.5 * chamber * (1 - 0.85 * ext);
-    for (int b : {hb::Torso, hb::Spine}) st.q[Skeleton::dof_offset(b) + 1] = 0.08 * lift;
+    st.q[s.dof_offset(hip) + 1] += -1.35 * lift;
+    st.q[s.dof_offset(knee) + 1] += 1.5 * chamber * (1 - 0.85 * ext);
+    for (int b : {hb::Torso, hb::Spine}) st.q[s.dof_offset(b) + 1] = 0.08 * lift;
     arms_down(s, st, Quat::Identity(), 0.2 * lift * (which == 0 ? 1 : -1), -0.2 * lift * (which == 0 ? 1 : -1), 1.2);
     // the stance foot stays planted where it stood in the zero pose (IK), and flat
     {
       const int ship = which == 0 ? hb::LHip : hb::RHip, sknee = which == 0 ? hb::LKnee : hb::RKnee;
       const int sankle = which == 0 ? hb::LAnkle : hb::RAnkle;
-      st.q[Skeleton::dof_offset(sknee) + 1] = 0.2;
+      st.q[s.dof_offset(sknee) + 1] = 0.2;
       leg_ik(s, st, ship, sknee, sankle, Vec3(zero.pos.col(sankle)) + Vec3(0, 0, stand));
     }
     feet_flat(s, st, Quat::Identity(), 0, 0);
     // the kicking foot points its toes (+ pitch) with the extension
     {
       const int ankle = which == 0 ? hb::RAnkle : hb::LAnkle;
-      const int k2 = Skeleton::dof_offset(ankle) + 1;
-      st.q[k2] = std::min(st.q[k2] + 0.5 * lift, s.joint_upper(1, ankle));
+      const int k2 = s.dof_offset(ankle) + 1;
+      st.q[k2] = std::min(st.q[k2] + 0.5 * lift, s.dof_upper(k2));
     }
     c.set_frame(t, st);
   }
@@ -272,7 +272,7 @@ inline MotionClip synthetic_jump(double apex = 0.2) {
   const double ah = ankle_height();
   const BodyStates zero = forward_kinematics(s, KinematicState::zero(s));
   KinematicState st = KinematicState::zero(s);
-  for (int b : {hb::LKnee, hb::RKnee}) st.q[Skeleton::dof_offset(b) + 1] = 0.2;
+  for (int b : {hb::LKnee, hb::RKnee}) st.q[s.dof_offset(b) + 1] = 0.2;
   for (int t = 0; t < T; ++t) {
     const double time = t / fps;
     double z, lean, arms;

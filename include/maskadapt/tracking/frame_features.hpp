@@ -92,8 +92,7 @@ MatrixX<T> encode_frames(const Skeleton& skel, const Trajectory& t) {
       f(L.yaw_delta, i) = static_cast<T>(wrap_angle(heading_angle(t.root_rot[iu]) - heading_angle(t.root_rot[iu - 1])));
     }
     for (int k = 1; k < L.num_bodies; ++k) {
-      const Vec3 a = t.q.block<3, 1>(Skeleton::dof_offset(k), i);
-      f.template block<6, 1>(L.joint_rot + 6 * (k - 1), i) = rotation_to_6d(joint_rotation(a)).cast<T>();
+      f.template block<6, 1>(L.joint_rot + 6 * (k - 1), i) = rotation_to_6d(joint_rotation(skel, k, t.q.col(i))).cast<T>();
       f.template block<3, 1>(L.body_pos + 3 * (k - 1), i) = t.body_pos.block<3, 1>(3 * k, i).cast<T>();
     }
   }
@@ -108,6 +107,7 @@ Trajectory decode_frames(const Skeleton& skel, const Eigen::Ref<const MatrixX<T>
   require(f.rows() == L.dim, "frame features have " + std::to_string(f.rows()) + " rows, expected " +
                                  std::to_string(L.dim), {{}, {}, "frame_features"});
   require_finite(f, "frame_features");
+  skel.require_xyz_layout("decode_frames (joint angles from rotations)");
   const Index N = f.cols();
   Trajectory t = Trajectory::zeros(skel, N, fps);
   for (Index i = 0; i < N; ++i) {
@@ -115,7 +115,7 @@ Trajectory decode_frames(const Skeleton& skel, const Eigen::Ref<const MatrixX<T>
     t.root_pos.col(i) = c.segment<3>(L.root_pos);
     t.root_rot[static_cast<std::size_t>(i)] = rotation_from_6d(c.segment<6>(L.root_rot));
     for (int k = 1; k < L.num_bodies; ++k)
-      t.q.block<3, 1>(Skeleton::dof_offset(k), i) =
+      t.q.block<3, 1>(skel.dof_offset(k), i) =
           joint_angles_from_rotation(rotation_from_6d(c.segment<6>(L.joint_rot + 6 * (k - 1))));
   }
   compute_body_positions(skel, t);

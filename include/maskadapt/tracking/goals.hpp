@@ -67,8 +67,9 @@ inline void extract_goals(const Skeleton& skel, const std::vector<int>& bodies, 
     const Quat& R0 = traj.root_rot[static_cast<std::size_t>(f)];
     for (std::size_t j = 0; j < bodies.size(); ++j) {
       const int b = bodies[j];
+      if (k == 0) skel.require_xyz_hinges(b, "extract_goals (3 hinge angles per goal body)");
       const Index r = k * per + 6 * static_cast<Index>(j);
-      out.segment<3>(r) = traj.q.col(f).segment<3>(Skeleton::dof_offset(b)).cast<float>();
+      out.segment<3>(r) = traj.q.col(f).segment<3>(skel.dof_offset(b)).cast<float>();
       out.segment<3>(r + 3) = heading_local(traj.body_pos.block<3, 1>(3 * b, f), p0, R0).cast<float>();
     }
   }
@@ -82,7 +83,7 @@ inline double rotation_error_sq(const Skeleton& skel, const std::vector<int>& bo
   for (int b : bodies) {
     const int p = skel.parents[static_cast<std::size_t>(b)];
     const Quat local = (sim.rot[static_cast<std::size_t>(p)].conjugate() * sim.rot[static_cast<std::size_t>(b)]).normalized();
-    const Quat target = joint_rotation(q_target.segment<3>(Skeleton::dof_offset(b)));
+    const Quat target = joint_rotation(skel, b, q_target);
     const double a = target.angularDistance(local);
     e += a * a;
   }

@@ -85,10 +85,7 @@ inline tasks::ActionSpace action_space_of(const BaseTrainConfig& c, Index num_do
 inline void resolve_action_space(BaseTrainConfig& c, const Skeleton& skel, const MotionLibrary* lib) {
   const Index nd = skel.num_dofs();
   auto limit = [&](Index k, bool upper) {
-    const int b = 1 + static_cast<int>(k / 3), axis = static_cast<int>(k % 3);
-    require(Skeleton::dof_offset(b) + axis == k, "action spaces assume three hinges per non-root body",
-            {{}, std::nullopt, "net.action_offset"});
-    return upper ? skel.joint_upper(axis, b) : skel.joint_lower(axis, b);
+    return upper ? skel.dof_upper(static_cast<int>(k)) : skel.dof_lower(static_cast<int>(k));
   };
   if (c.net.action_offset_rad.empty() && c.net.action_offset != "zero") {
     c.net.action_offset_rad.assign(static_cast<std::size_t>(nd), 0.0);

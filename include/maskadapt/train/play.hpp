@@ -50,11 +50,12 @@ struct PlayResult {
 
 /// Joint angles of a pose from world body orientations: body i's local rotation R_p(i)ᵀ R_i
 /// decomposed into the 3 hinges (x, y, z) nearest to `hint` (previous frame; keeps sequences
-/// continuous). Returns (num_dofs).
+/// continuous). Returns (num_dofs). Needs the x-y-z layout of the humanoid (throws otherwise).
 inline VectorXd joint_angles_from_body_states(const Skeleton& skel, const BodyStates& b, const VectorXd& hint) {
+  skel.require_xyz_layout("joint_angles_from_body_states");
   VectorXd q(skel.num_dofs());
   for (int i = 1; i < skel.num_bodies(); ++i) {
-    const int k = Skeleton::dof_offset(i);
+    const int k = skel.dof_offset(i);
     const Quat local = b.rot[static_cast<std::size_t>(skel.parents[i])].conjugate() * b.rot[static_cast<std::size_t>(i)];
     q.segment<3>(k) = joint_angles_near(local, hint.size() == q.size() ? Vec3(hint.segment<3>(k)) : Vec3::Zero());
   }

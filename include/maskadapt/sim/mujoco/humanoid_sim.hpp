@@ -422,12 +422,13 @@ class MujocoHumanoidSim {
     root_dof_ = m->jnt_dofadr[root_joint];
     qpos_adr_.resize(static_cast<std::size_t>(s.num_dofs()));
     dof_adr_.resize(static_cast<std::size_t>(s.num_dofs()));
+    s.require_xyz_layout("MujocoHumanoidSim (joints named <body>_x/_y/_z, humanoid/mjcf.hpp)");
     for (int i = 1; i < s.num_bodies(); ++i)
       for (int k = 0; k < 3; ++k) {
         const std::string name = s.names[static_cast<std::size_t>(i)] + (k == 0 ? "_x" : k == 1 ? "_y" : "_z");
         const int j = mj_name2id(m, mjOBJ_JOINT, name.c_str());
         require(j >= 0, "model has no joint '" + name + "'", {{}, {}, "joints"});
-        const auto dof = static_cast<std::size_t>(Skeleton::dof_offset(i) + k);
+        const auto dof = static_cast<std::size_t>(s.dof_offset(i) + k);
         qpos_adr_[dof] = m->jnt_qposadr[j];
         dof_adr_[dof] = m->jnt_dofadr[j];
         require(m->actuator_trnid[2 * static_cast<int>(dof)] == j, "actuator " + std::to_string(dof) +
