@@ -1,9 +1,12 @@
 // The G1-like robot on MuJoCo: the generated model agrees with the description (mass, height,
-// joints, forward kinematics), stands 10 s under PD at the nominal pose, and survives 10,000
+// joints, forward kinematics — the G1's own and the generic Skeleton's), stands 10 s under PD at the nominal pose, and survives 10,000
 // random-target control steps without a non-finite state or a MuJoCo instability warning.
 #include <maskadapt/core/rng.hpp>
 #include <maskadapt/g1/mjcf.hpp>
+#include <maskadapt/g1/skeleton.hpp>
 #include <maskadapt/sim/mujoco/humanoid_sim.hpp>  // mujoco_detail::load_model_from_string/_file
+
+#include "../skeleton_vs_mujoco.hpp"
 
 #include <gtest/gtest.h>
 
@@ -232,4 +235,66 @@ TEST(G1Mujoco, CommittedAssetLoads) {
   auto m = mujoco_detail::load_model_from_file(std::string(MASKADAPT_SOURCE_DIR) + "/assets/g1.xml");
   EXPECT_EQ(m->nu, kNumJoints);
   EXPECT_EQ(m->nbody, kNumBodies + 1);
+}
+
+TEST(G1Mujoco, GenericSkeletonMatchesTheDescription) {
+  const Skeleton& s = g1_skeleton();
+  ASSERT_EQ(s.num_bodies(), kNumBodies);
+  ASSERT_EQ(s.num_dofs(), kNumJoints);
+  for (int i = 1; i < kNumBodies; ++i) {
+    const Link& l = D().links[static_cast<std::size_t>(i)];
+    EXPECT_EQ(s.names[static_cast<std::size_t>(i)], l.name);
+    EXPECT_EQ(s.parents[static_cast<std::size_t>(i)], l.parent);
+    EXPECT_EQ(s.parts[static_cast<std::size_t>(i)], l.part) << l.name;
+    ASSERT_EQ(s.num_dofs_of(i), 1) << l.name;
+    EXPECT_EQ(s.dof_offset(i), i - 1) << l.name;  // DoF k = joint k (motor order)
+    EXPECT_EQ(s.dof_axis(i - 1), l.axis) << l.name;
+    EXPECT_EQ(s.dof_lower(i - 1), l.lower);
+    EXPECT_EQ(s.dof_upper(i - 1), l.upper);
+  }
+  EXPECT_FALSE(s.has_xyz_layout());
+  EXPECT_THROW(s.require_xyz_layout("test"), Error);
+  const auto m = mujoco_detail::load_model_from_file(std::string(MASKADAPT_SOURCE_DIR) + "/assets/g1.xml");
+  maskadapt::testing::expect_same_hinges(s, m.get());
+}
+
+TEST(G1Mujoco, GenericForwardKinematicsMatchesG1FkAndMujoco) {
+  // The generic Skeleton FK on the G1 (one hinge per link, arbitrary axes) against the G1's own
+  // FK (same products, ~1e-15) and MuJoCo's xpos/xquat and body velocities on assets/g1.xml.
+  const auto m = mujoco_detail::load_model_from_file(std::string(MASKADAPT_SOURCE_DIR) + "/assets/g1.xml");
+  mujoco_detail::DataPtr d(mj_makeData(m.get()));
+  const Skeleton& s = g1_skeleton();
+  Rng r(181);
+  double own_pos = 0, own_rot = 0;
+  maskadapt::testing::FkDifference worst;
+  for (int trial = 0; trial < 20; ++trial) {
+    KinematicState st = KinematicState::zero(s);
+    st.root_pos = Vec3(r.uniform(-1, 1), r.uniform(-1, 1), r.uniform(0.5, 1.2));
+    st.root_rot = Quat(r.normal(), r.normal(), r.normal(), r.normal()).normalized();
+    st.root_lin_vel = Vec3(r.normal(), r.normal(), r.normal());
+    st.root_ang_vel = Vec3(r.normal(), r.normal(), r.normal());
+    for (int k = 0; k < s.num_dofs(); ++k) {
+      st.q[k] = r.uniform(s.dof_lower(k), s.dof_upper(k));
+      st.qd[k] = r.normal(0, 2);
+    }
+    const BodyStates b = maskadapt::forward_kinematics(s, st);
+    const LinkPoses p = g1::forward_kinematics(D(), st.root_pos, st.root_rot, st.q);
+    for (int i = 0; i < kNumBodies; ++i) {
+      own_pos = std::max(own_pos, (b.pos.col(i) - p.pos[static_cast<std::size_t>(i)]).norm());
+      own_rot = std::max(own_rot, b.rot[static_cast<std::size_t>(i)].angularDistance(p.rot[static_cast<std::size_t>(i)]));
+    }
+    const auto e = maskadapt::testing::compare_with_mujoco(s, m.get(), d.get(), st);
+    worst.pos = std::max(worst.pos, e.pos);
+    worst.rot = std::max(worst.rot, e.rot);
+    worst.lin_vel = std::max(worst.lin_vel, e.lin_vel);
+    worst.ang_vel = std::max(worst.ang_vel, e.ang_vel);
+  }
+  std::cout << "generic FK vs G1 FK: " << own_pos << " m, " << own_rot << " rad; vs MuJoCo: " << worst.pos << " m, "
+            << worst.rot << " rad, " << worst.lin_vel << " m/s, " << worst.ang_vel << " rad/s\n";
+  EXPECT_LT(own_pos, 1e-9);
+  EXPECT_LT(own_rot, 1e-9);
+  EXPECT_LT(worst.pos, 1e-6);
+  EXPECT_LT(worst.rot, 1e-6);
+  EXPECT_LT(worst.lin_vel, 1e-6);
+  EXPECT_LT(worst.ang_vel, 1e-6);
 }

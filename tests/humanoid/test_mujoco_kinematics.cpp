@@ -3,6 +3,8 @@
 #include <maskadapt/humanoid/description.hpp>
 #include <maskadapt/sim/mujoco/humanoid_sim.hpp>
 
+#include "../skeleton_vs_mujoco.hpp"
+
 #include <gtest/gtest.h>
 
 #include <iostream>
@@ -99,4 +101,29 @@ TEST(MujocoKinematics, LoadErrorsBecomeLibraryErrors) {
     EXPECT_NE(std::string(e.what()).find("MuJoCo could not load"), std::string::npos) << e.what();
   }
   EXPECT_THROW(mujoco_detail::load_model_from_file("/nonexistent/humanoid.xml"), Error);
+}
+
+TEST(MujocoKinematics, GenericSkeletonMatchesTheCommittedAsset) {
+  // The skeleton's hinges (x, y, z per body, DoF order) are the joints of assets/humanoid.xml,
+  // and forward_kinematics over those hinge axes gives MuJoCo's xpos/xquat and body velocities.
+  const auto m = mujoco_detail::load_model_from_file(std::string(MASKADAPT_SOURCE_DIR) + "/assets/humanoid.xml");
+  mujoco_detail::DataPtr d(mj_makeData(m.get()));
+  const Skeleton& s = humanoid_skeleton();
+  EXPECT_TRUE(s.has_xyz_layout());
+  maskadapt::testing::expect_same_hinges(s, m.get());
+  Rng r(23);
+  maskadapt::testing::FkDifference worst;
+  for (int trial = 0; trial < 20; ++trial) {
+    const auto e = maskadapt::testing::compare_with_mujoco(s, m.get(), d.get(), random_state(r, true));
+    worst.pos = std::max(worst.pos, e.pos);
+    worst.rot = std::max(worst.rot, e.rot);
+    worst.lin_vel = std::max(worst.lin_vel, e.lin_vel);
+    worst.ang_vel = std::max(worst.ang_vel, e.ang_vel);
+  }
+  std::cout << "vs assets/humanoid.xml: " << worst.pos << " m, " << worst.rot << " rad, " << worst.lin_vel << " m/s, "
+            << worst.ang_vel << " rad/s\n";
+  EXPECT_LT(worst.pos, 1e-6);
+  EXPECT_LT(worst.rot, 1e-6);
+  EXPECT_LT(worst.lin_vel, 1e-6);
+  EXPECT_LT(worst.ang_vel, 1e-6);
 }
