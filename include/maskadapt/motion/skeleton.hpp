@@ -85,7 +85,7 @@ struct Skeleton {
   /// (3 × num_bodies), column 0 unused (rad).
   void set_xyz_hinges(const Matrix3X& lower, const Matrix3X& upper) {
     require(lower.cols() == num_bodies() && upper.cols() == num_bodies(), "joint limits need one column per body",
-            {{}, {}, "joint_lower"});
+            {{}, {}, "dof_lower"});
     clear_hinges();
     for (int i = 1; i < num_bodies(); ++i) add_xyz_hinges(i, lower.col(i), upper.col(i));
   }
@@ -154,7 +154,7 @@ struct Skeleton {
         require(dof_axes_.col(k).allFinite() && std::abs(dof_axes_.col(k).norm() - 1.0) < 1e-9,
                 "hinge " + std::to_string(k) + " of '" + names[i] + "' needs a unit axis", {{}, {}, "dof_axes"});
         require(lower_[k] <= upper_[k], "joint limits of '" + names[i] + "' (hinge " + std::to_string(k) +
-                                            ") have lower > upper", {{}, {}, "joint_lower"});
+                                            ") have lower > upper", {{}, {}, "dof_lower"});
       }
     }
     require(offsets.allFinite(), "offsets contain non-finite values", {{}, {}, "offsets"});

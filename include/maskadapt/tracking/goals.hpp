@@ -8,7 +8,7 @@
 ///
 /// Goal features (what the residual policy sees), for each of the next `steps` target frames
 /// k = 1 … steps and each designated body b (body order):
-///   - the 3 hinge angles q*_b (rad), and
+///   - the 3 hinge angles q*_b (rad; goal bodies need x-y-z hinges, as the humanoid's), and
 ///   - the body's position relative to the root, in the TARGET frame's heading frame (m),
 /// i.e. 6 rows per body per step: goal_dim = steps · 6 · |designated bodies|. Both are invariant
 /// to where the target trajectory sits in the world, so drift between the simulated character and
