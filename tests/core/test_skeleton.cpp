@@ -110,7 +110,9 @@ TEST(Skeleton, HingeLayoutIsIndexedPerBodyAndPerDof) {
   EXPECT_EQ(s.num_dofs(), 7);
   const int first[5] = {0, 0, 1, 3, 6}, count[5] = {0, 1, 2, 3, 1};
   for (int i = 0; i < 5; ++i) {
-    if (i > 0) EXPECT_EQ(s.dof_offset(i), first[i]) << i;
+    if (i > 0) {
+      EXPECT_EQ(s.dof_offset(i), first[i]) << i;
+    }
     EXPECT_EQ(s.num_dofs_of(i), count[i]) << i;
     for (int k = s.dof_offset(i); i > 0 && k < s.dof_offset(i) + s.num_dofs_of(i); ++k) EXPECT_EQ(s.dof_body(k), i);
   }
