@@ -14,7 +14,11 @@ import sys
 
 
 def pyplot():
-    import matplotlib
+    try:
+        import matplotlib
+    except ImportError:
+        sys.exit("plot_results.py: matplotlib is missing: `scripts/setup.sh --with-plots --no-build` installs Debian's "
+                 "python3-matplotlib (run this script with /usr/bin/python3 if another python3 comes first on PATH)")
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt

@@ -6,6 +6,7 @@
 #   scripts/setup.sh --with-torch  # also libtorch-dev (~800 MB) for the LibTorch benchmark peers
 #   scripts/setup.sh --with-mpi    # also libopenmpi-dev + openmpi-bin: `mpirun -np K maskadapt train-base`,
 #                                  # maskadapt::mpi and tests/mpi (docs/distributed.md)
+#   scripts/setup.sh --with-plots  # also python3-matplotlib for scripts/plot_results.py (the figures in docs/)
 #   scripts/setup.sh --no-build    # packages only
 #   scripts/setup.sh --cli-only    # build only the `maskadapt` command (what quickstart.sh needs)
 set -euo pipefail
@@ -13,12 +14,14 @@ cd "$(dirname "$0")/.."
 
 with_torch=0
 with_mpi=0
+with_plots=0
 build=1
 target=()
 for arg in "$@"; do
   case "$arg" in
     --with-torch) with_torch=1 ;;
     --with-mpi) with_mpi=1 ;;
+    --with-plots) with_plots=1 ;;
     --no-build) build=0 ;;
     --cli-only) target=(--target maskadapt_cli) ;;
     *) echo "setup.sh: unknown option '$arg'" >&2; exit 2 ;;
@@ -35,6 +38,7 @@ packages=(
 )
 [ "$with_torch" = 1 ] && packages+=(libtorch-dev)
 [ "$with_mpi" = 1 ] && packages+=(libopenmpi-dev openmpi-bin)
+[ "$with_plots" = 1 ] && packages+=(python3-matplotlib)
 
 missing=()
 for p in "${packages[@]}"; do

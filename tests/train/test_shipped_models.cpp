@@ -98,7 +98,8 @@ TEST(ShippedModels, Table1BasesLoadAsTheVariantsTheyClaimToBe) {
                             Expected{"mask_no_mi_s1.bin", 0.8, 0.0, "Table 1 masking without MI", 1},
                             Expected{"mask_mi03_s1.bin", 0.8, 0.3, "Table 1 masking with MI", 1},
                             Expected{"amp_s2.bin", 0.0, 0.0, "Table 1 AMP base, seed 2", 2},
-                            Expected{"mask_no_mi_s2.bin", 0.8, 0.0, "Table 1 masking without MI, seed 2", 2}}) {
+                            Expected{"mask_no_mi_s2.bin", 0.8, 0.0, "Table 1 masking without MI, seed 2", 2},
+                            Expected{"mask_mi1_s1.bin", 0.8, 1.0, "Table 1 masking with MI, lambda 1", 1}}) {
     const std::string path = std::string(MASKADAPT_SOURCE_DIR "/models/table1/") + e.file;
     const Checkpoint c = load_checkpoint(path);
     ASSERT_TRUE(is_policy_export(c)) << path;

@@ -107,6 +107,44 @@ inline Index numel_of(const Checkpoint& c, const std::string& name, DType want, 
                 {file, std::nullopt, name});
   return static_cast<Index>(s.numel());
 }
+/// Checks model/kind and model/format_version of an export of kind `kind` ("a `what` export").
+inline void require_export_kind(const Checkpoint& c, const std::string& file, const char* kind, std::int64_t version,
+                                const char* what) {
+  const std::string found = c.contains("model/kind") ? c.get_string("model/kind") : std::string();
+  require(found == kind,
+          c.contains("model/kind") ? std::string("not a ") + what + " export: kind '" + found + "', expected '" + kind + "'"
+                                   : std::string("missing section: not a policy-only export"),
+          {file, std::nullopt, "model/kind"});
+  const std::int64_t v = c.get_int("model/format_version");
+  require(v == version,
+          "unsupported export format version " + std::to_string(v) + " (this build reads version " + std::to_string(version) + ")",
+          {file, std::nullopt, "model/format_version"});
+}
+/// A new export of kind `kind` (model/kind, model/format_version), labelled `file` for errors.
+inline Checkpoint start_export(const std::string& file, const char* kind, std::int64_t version) {
+  Checkpoint e;
+  e.set_source(file);
+  e.put_string("model/kind", kind);
+  e.put_int("model/format_version", version);
+  return e;
+}
+/// Copies section `name` of `from` into `to` byte for byte, under the same name.
+inline void copy_section(const Checkpoint& from, Checkpoint& to, const std::string& name) {
+  const CheckpointSection& s = from.section(name);
+  to.put_raw(name, s.dtype, s.shape, s.data.data(), s.data.size());
+}
+/// Writes an export's counters (copied from `training` when it has them) and its provenance
+/// records (the run's history and training time, copied; the export's own from `info`).
+inline void put_export_records(const Checkpoint& training, Checkpoint& e, const ExportInfo& info) {
+  for (const char* name : {"trainer/iteration", "trainer/samples"})
+    if (training.contains(name)) e.put_int(name, training.get_int(name));  // (int64 scalars, type-checked)
+  const std::string history = training.contains("provenance/history") ? training.get_string("provenance/history") : "";
+  e.put_string("provenance/history", history.empty() ? std::string(kUnknownProvenance) : history);
+  e.put_double(kTrainSecondsSection, training_seconds_of(training));
+  e.put_string("provenance/exported_from", info.exported_from);
+  e.put_string("provenance/export_git_commit", info.git_commit);
+  e.put_string("provenance/note", info.note);
+}
 }  // namespace detail
 
 /// The actor's sizes read off the actor sections of `c` (a training checkpoint or an export),
@@ -153,16 +191,7 @@ inline ModelDims actor_dims_of(const Checkpoint& c, const BaseTrainConfig& cfg, 
 inline ModelDims check_policy_export(const Checkpoint& c, const std::optional<ModelDims>& expected = std::nullopt,
                                      std::string file = {}) {
   if (file.empty()) file = c.source();
-  const std::string kind = c.contains("model/kind") ? c.get_string("model/kind") : std::string();
-  require(kind == kPolicyExportKind,
-          c.contains("model/kind") ? "not a base-policy export: kind '" + kind + "', expected '" + kPolicyExportKind + "'"
-                                   : std::string("missing section: not a policy-only export"),
-          {file, std::nullopt, "model/kind"});
-  const std::int64_t version = c.get_int("model/format_version");
-  require(version == kPolicyExportVersion,
-          "unsupported export format version " + std::to_string(version) + " (this build reads version " +
-              std::to_string(kPolicyExportVersion) + ")",
-          {file, std::nullopt, "model/format_version"});
+  detail::require_export_kind(c, file, kPolicyExportKind, kPolicyExportVersion, "base-policy");
   const BaseTrainConfig cfg = config_from_string(c.get_string("config"), file + " (config)");
   const ModelDims sections = actor_dims_of(c, cfg, file);
   const ModelDims recorded{c.get_int("model/obs_dim"), c.get_int("model/policy_input_dim"), c.get_int("model/action_dim")};
@@ -208,29 +237,16 @@ inline void export_base_policy(const Checkpoint& training, Checkpoint& out, cons
   const BaseTrainConfig cfg = config_from_string(training.get_string("config"), file + " (config)");
   const ModelDims d = actor_dims_of(training, cfg, file);
 
-  Checkpoint e;
-  e.set_source(file);
-  e.put_string("model/kind", kPolicyExportKind);
-  e.put_int("model/format_version", kPolicyExportVersion);
+  Checkpoint e = detail::start_export(file, kPolicyExportKind, kPolicyExportVersion);
   e.put_int("model/obs_dim", d.obs_dim);
   e.put_int("model/policy_input_dim", d.policy_input_dim);
   e.put_int("model/action_dim", d.action_dim);
-  auto copy = [&](const std::string& name) {
-    const CheckpointSection& s = training.section(name);
-    e.put_raw(name, s.dtype, s.shape, s.data.data(), s.data.size());
-  };
+  auto copy = [&](const std::string& name) { detail::copy_section(training, e, name); };
   for (const char* name : {"config", "actor/params", "actor/log_std", "actor/norm/count", "actor/norm/mean", "actor/norm/m2"})
     copy(name);
   for (const char* name : {"actor/action_offset", "actor/action_scale", "actor/hidden_groups"})
     if (training.contains(name)) copy(name);
-  for (const char* name : {"trainer/iteration", "trainer/samples"})
-    if (training.contains(name)) e.put_int(name, training.get_int(name));  // (int64 scalars, type-checked)
-  const std::string history = training.contains("provenance/history") ? training.get_string("provenance/history") : "";
-  e.put_string("provenance/history", history.empty() ? std::string(kUnknownProvenance) : history);
-  e.put_double(kTrainSecondsSection, training_seconds_of(training));
-  e.put_string("provenance/exported_from", info.exported_from);
-  e.put_string("provenance/export_git_commit", info.git_commit);
-  e.put_string("provenance/note", info.note);
+  detail::put_export_records(training, e, info);
   (void)check_policy_export(e, std::nullopt, file);
   out = std::move(e);
 }

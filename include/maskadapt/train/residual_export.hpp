@@ -82,16 +82,7 @@ inline ResidualTrainConfig stage2_config_of(const Checkpoint& c, const std::stri
 /// of another size). `file` labels errors ("": c.source()).
 inline ResidualTrainConfig check_residual_export(const Checkpoint& c, std::string file = {}) {
   if (file.empty()) file = c.source();
-  const std::string kind = c.contains("model/kind") ? c.get_string("model/kind") : std::string();
-  require(kind == kResidualExportKind,
-          c.contains("model/kind") ? "not a stage-2 export: kind '" + kind + "', expected '" + kResidualExportKind + "'"
-                                   : std::string("missing section: not a policy-only export"),
-          {file, std::nullopt, "model/kind"});
-  const std::int64_t version = c.get_int("model/format_version");
-  require(version == kResidualExportVersion,
-          "unsupported export format version " + std::to_string(version) + " (this build reads version " +
-              std::to_string(kResidualExportVersion) + ")",
-          {file, std::nullopt, "model/format_version"});
+  detail::require_export_kind(c, file, kResidualExportKind, kResidualExportVersion, "stage-2");
   const ResidualTrainConfig cfg = detail::stage2_config_of(c, file);
   require(c.get_string("model/task") == cfg.task, "is '" + c.get_string("model/task") + "', the run's config says '" + cfg.task + "'",
           {file, std::nullopt, "model/task"});
@@ -115,28 +106,15 @@ inline void export_residual_policy(const Checkpoint& training, Checkpoint& out, 
   for (const char* name : detail::required_stage2_sections(cfg.method))
     require(training.contains(name), "missing section: not a complete " + cfg.method + " checkpoint", {file, std::nullopt, name});
 
-  Checkpoint e;
-  e.set_source(file);
-  e.put_string("model/kind", kResidualExportKind);
-  e.put_int("model/format_version", kResidualExportVersion);
+  Checkpoint e = detail::start_export(file, kResidualExportKind, kResidualExportVersion);
   e.put_string("model/task", cfg.task);
   e.put_string("model/method", cfg.method);
-  auto copy = [&](const std::string& name) {
-    const CheckpointSection& s = training.section(name);
-    e.put_raw(name, s.dtype, s.shape, s.data.data(), s.data.size());
-  };
+  auto copy = [&](const std::string& name) { detail::copy_section(training, e, name); };
   for (const char* name : {"residual_config", "config"})
     if (training.contains(name)) copy(name);
   for (const std::string& name : training.names())
     if (detail::is_stage2_policy_section(name)) copy(name);
-  for (const char* name : {"trainer/iteration", "trainer/samples"})
-    if (training.contains(name)) e.put_int(name, training.get_int(name));
-  const std::string history = training.contains("provenance/history") ? training.get_string("provenance/history") : "";
-  e.put_string("provenance/history", history.empty() ? std::string(kUnknownProvenance) : history);
-  e.put_double(kTrainSecondsSection, training_seconds_of(training));
-  e.put_string("provenance/exported_from", info.exported_from);
-  e.put_string("provenance/export_git_commit", info.git_commit);
-  e.put_string("provenance/note", info.note);
+  detail::put_export_records(training, e, info);
   (void)check_residual_export(e, file);
   out = std::move(e);
 }
