@@ -116,12 +116,40 @@ TEST(ShippedModels, Table1BasesLoadAsTheVariantsTheyClaimToBe) {
   }
 }
 
+// Bit-identical actor parameters: a stage-2 model's frozen base against the base model it names.
+bool same_base(const Checkpoint& stage2, const std::string& base_model) {
+  return stage2.section("base/actor/params").data == load_checkpoint(base_model).section("actor/params").data;
+}
+
+// The Table 2 case (c) policies (issue 15, models/table2/): SNEAKY composed onto the legs of the
+// Table 1 MI base by ours and by the CML-style baseline; each is what its name says, on that base.
+TEST(ShippedModels, Table2SneakPoliciesAreTheCellsTheyClaimToBe) {
+  const Skeleton& skel = humanoid_skeleton();
+  for (const char* method : {"ours", "cml"})
+    for (const char* seed : {"s1", "s2"}) {
+      const std::string path = std::string(MASKADAPT_SOURCE_DIR "/models/table2/sneak_") + method + "_" + seed + ".bin";
+      const Checkpoint c = load_checkpoint(path);
+      const ResidualTrainConfig cfg = check_residual_export(c, path);
+      EXPECT_EQ(cfg.task, "composition") << path;
+      EXPECT_EQ(cfg.method, method) << path;
+      EXPECT_EQ(cfg.masks, std::vector<std::string>{"lower_body"}) << path;
+      ASSERT_EQ(cfg.new_motions.size(), 1u) << path;
+      EXPECT_NE(cfg.new_motions[0].find("SNEAKY"), std::string::npos) << path;
+      EXPECT_EQ(cfg.rl.run.seed, std::string(seed) == "s1" ? 1u : 2u) << path;
+      EXPECT_EQ(c.get_int("trainer/iteration"), 1000) << path;
+      EXPECT_TRUE(same_base(c, MASKADAPT_SOURCE_DIR "/models/table1/mask_mi03_s1.bin")) << path;
+      const auto pol = stage2_policy_from_checkpoint<adapt::ResidualPolicy<float>>(c, skel);
+      MatrixXf x = MatrixXf::Zero(pol.input_dim(), 1), mu;
+      adapt::ResidualWorkspace<float> ws;
+      pol.mean(x, std::vector<PartMask>{PartMask::parse("lower_body")}, mu, ws);
+      EXPECT_TRUE(mu.allFinite()) << path;
+    }
+}
+
 // The Table 3 policies (issue 16, models/table3/): each is the stage-2 export of the cell it is
 // named after — its task, its method, 1,500 iterations, a frozen base that is bit for bit the
 // shipped walking base's actor — and builds on the reference humanoid with finite mean actions.
 TEST(ShippedModels, Table3PoliciesAreTheCellsTheyClaimToBeOnTheShippedBase) {
-  const Checkpoint walker = load_checkpoint(MASKADAPT_SOURCE_DIR "/models/mask_mi_walk_bandai.bin");
-  const CheckpointSection& walker_actor = walker.section("actor/params");
   const Skeleton& skel = humanoid_skeleton();
   for (const char* task : {"location", "heading", "strike"})
     for (const char* method : {"ours", "cml", "adaptnet"}) {
@@ -134,8 +162,8 @@ TEST(ShippedModels, Table3PoliciesAreTheCellsTheyClaimToBeOnTheShippedBase) {
       EXPECT_EQ(cfg.goal_parts, std::string(task) == "heading" ? "" : "lower_body") << path;
       EXPECT_EQ(c.get_int("trainer/iteration"), 1500) << path;
       EXPECT_NE(export_provenance(c).note.find(std::string("Table 3 cell ") + task + "/" + method), std::string::npos) << path;
-      const CheckpointSection& base = c.section("base/actor/params");
-      EXPECT_TRUE(base.data == walker_actor.data) << path << ": the frozen base is not models/mask_mi_walk_bandai.bin's actor";
+      EXPECT_TRUE(same_base(c, MASKADAPT_SOURCE_DIR "/models/mask_mi_walk_bandai.bin"))
+          << path << ": the frozen base is not models/mask_mi_walk_bandai.bin's actor";
       auto mean_actions = [&]<class Policy>() {
         const Policy pol = stage2_policy_from_checkpoint<Policy>(c, skel);
         MatrixXf x = MatrixXf::Zero(pol.input_dim(), 1), mu;
