@@ -45,15 +45,11 @@ TEST(Skeleton, ForwardKinematicsClosedForm) {
   EXPECT_LT((c.pos.col(2) - Vec3(1.8, 2, 3)).norm(), 1e-12);
 }
 
-TEST(Skeleton, VelocitiesMatchFiniteDifferences) {
-  const Skeleton s = chain();
-  Rng r(11);
-  KinematicState st = KinematicState::zero(s);
-  st.root_pos = Vec3(r.normal(), r.normal(), r.normal());
-  st.root_rot = Quat(Eigen::AngleAxisd(0.7, Vec3(1, 2, 3).normalized()));
-  for (int k = 0; k < 6; ++k) st.q[k] = r.uniform(-1, 1), st.qd[k] = r.uniform(-1, 1);
-  st.root_lin_vel = Vec3(0.3, -0.2, 0.1);
-  st.root_ang_vel = Vec3(0.5, 0.1, -0.4);
+namespace {
+// Every body's linear and angular velocity from forward_kinematics against central differences of
+// its positions and orientations, the state advanced by ±h along its own velocities (root twist
+// and joint rates).
+void expect_velocities_match_finite_differences(const Skeleton& s, const KinematicState& st) {
   const double h = 1e-6;
   auto advance = [&](double dt) {
     KinematicState t = st;
@@ -64,14 +60,25 @@ TEST(Skeleton, VelocitiesMatchFiniteDifferences) {
     return forward_kinematics(s, t);
   };
   const BodyStates b0 = forward_kinematics(s, st), bp = advance(h), bm = advance(-h);
-  for (int i = 0; i < 3; ++i) {
+  for (int i = 0; i < s.num_bodies(); ++i) {
     const Vec3 v_fd = (bp.pos.col(i) - bm.pos.col(i)) / (2 * h);
     EXPECT_LT((v_fd - b0.lin_vel.col(i)).norm(), 1e-6) << "body " << i;
-    const Quat dq = bp.rot[i] * bm.rot[i].conjugate();
-    const Eigen::AngleAxisd aa(dq);
-    const Vec3 w_fd = aa.axis() * aa.angle() / (2 * h);
-    EXPECT_LT((w_fd - b0.ang_vel.col(i)).norm(), 1e-5) << "body " << i;
+    const Eigen::AngleAxisd aa(bp.rot[i] * bm.rot[i].conjugate());
+    EXPECT_LT((aa.axis() * aa.angle() / (2 * h) - b0.ang_vel.col(i)).norm(), 1e-5) << "body " << i;
   }
+}
+}  // namespace
+
+TEST(Skeleton, VelocitiesMatchFiniteDifferences) {
+  const Skeleton s = chain();
+  Rng r(11);
+  KinematicState st = KinematicState::zero(s);
+  st.root_pos = Vec3(r.normal(), r.normal(), r.normal());
+  st.root_rot = Quat(Eigen::AngleAxisd(0.7, Vec3(1, 2, 3).normalized()));
+  for (int k = 0; k < 6; ++k) st.q[k] = r.uniform(-1, 1), st.qd[k] = r.uniform(-1, 1);
+  st.root_lin_vel = Vec3(0.3, -0.2, 0.1);
+  st.root_ang_vel = Vec3(0.5, 0.1, -0.4);
+  expect_velocities_match_finite_differences(s, st);
 }
 
 TEST(Skeleton, ValidateRejectsBadTopology) {
@@ -185,22 +192,8 @@ TEST(Skeleton, GenericVelocitiesMatchFiniteDifferences) {
   for (int k = 0; k < s.num_dofs(); ++k) st.q[k] = r.uniform(-1.5, 1.5), st.qd[k] = r.uniform(-2, 2);
   st.root_lin_vel = Vec3(0.3, -0.2, 0.1);
   st.root_ang_vel = Vec3(0.5, 0.1, -0.4);
-  const double h = 1e-6;
-  auto advance = [&](double dt) {
-    KinematicState t = st;
-    t.root_pos += dt * st.root_lin_vel;
-    const Vec3 w = st.root_ang_vel * dt;
-    t.root_rot = Quat(Eigen::AngleAxisd(w.norm(), w.normalized())) * st.root_rot;
-    t.q += dt * st.qd;
-    return forward_kinematics(s, t);
-  };
-  const BodyStates b0 = forward_kinematics(s, st), bp = advance(h), bm = advance(-h);
-  for (int i = 0; i < 5; ++i) {
-    const Vec3 v_fd = (bp.pos.col(i) - bm.pos.col(i)) / (2 * h);
-    EXPECT_LT((v_fd - b0.lin_vel.col(i)).norm(), 1e-6) << "body " << i;
-    const Eigen::AngleAxisd aa(bp.rot[i] * bm.rot[i].conjugate());
-    EXPECT_LT((aa.axis() * aa.angle() / (2 * h) - b0.ang_vel.col(i)).norm(), 1e-5) << "body " << i;
-  }
+  expect_velocities_match_finite_differences(s, st);
+  const BodyStates b0 = forward_kinematics(s, st);
   // No allocation when `out` is sized: the buffers stay where they are.
   BodyStates out = b0;
   const double* pos = out.pos.data();
