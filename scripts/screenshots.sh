@@ -12,7 +12,8 @@
 #   b_ours/switch.json                                → switch_before.png, switch_after.png
 #   track_ours/play.json                              → tracking.png
 #   ablation/{amp,mask_no_mi,mi_0.1,mi_1.0}/log.jsonl → training_logs.png (episode_length, mi_kl)
-# and, from models/ with the built `maskadapt` (MASKADAPT_CLI), shipped_walker.png (SHIPPED_T, default 2 s).
+# and, from models/ with the built `maskadapt` (MASKADAPT_CLI), shipped_walker.png (SHIPPED_T, default 2 s)
+# and fig5c_viewer_{before,after}.png (models/table2/sneak_ours_s1.bin, mask switched at 3 s).
 # Times: WALK_T (default 0.6 s: the short CPU-trained bases fall after ≈1 s), SWITCH_T (the switch, default 5 s; pictures at SWITCH_T − 1 s and
 # SWITCH_T + 1.5 s), TRACK_T (default 0.6 s, before the fall).
 set -uo pipefail
@@ -120,6 +121,23 @@ if have "$model" "$cli"; then
       --time "${SHIPPED_T:-2}"
   else
     echo "screenshots: $picture: maskadapt play failed" >&2
+    failed=$((failed + 1))
+  fi
+fi
+
+# (f) the shipped Table 2 case (c) policy with its mask switched mid-episode (the paper's Fig. 5c):
+# no part masked for 3 s (the base walks), then the lower body (the legs sneak).
+picture="fig5c_viewer_before.png, fig5c_viewer_after.png"
+model="$repo/models/table2/sneak_ours_s1.bin"
+if have "$model" "$cli"; then
+  rollout="$(mktemp -d)/fig5c.json"
+  if (cd "$repo" && "$cli" play-residual models/table2/sneak_ours_s1.bin --mask-schedule "0:none,3:lower_body" --seconds 6 \
+        --seed 1 --rollout "$rollout" >/dev/null); then
+    command_of "$rollout"
+    take fig5c_viewer_before.png --rollout "$rollout" --label "models/table2/sneak_ours_s1.bin: no mask (the base walks)" --time 2
+    take fig5c_viewer_after.png --rollout "$rollout" --label "models/table2/sneak_ours_s1.bin: lower body masked (sneak)" --time 4.5
+  else
+    echo "screenshots: $picture: maskadapt play-residual failed" >&2
     failed=$((failed + 1))
   fi
 fi
