@@ -202,6 +202,7 @@ void run_train_residual(const Args& a) {
 #else
   ResidualTrainConfig c;
   std::unique_ptr<Checkpoint> resume;
+  std::unique_ptr<Checkpoint> base_file;  // --base, read once: its config here, its actor below
   if (!a.resume.empty()) {  // the run's own config; only budgets and the output directory may change
     resume = std::make_unique<Checkpoint>(load_checkpoint(a.resume));
     require(!resume->contains("model/kind"),
@@ -234,11 +235,11 @@ void run_train_residual(const Args& a) {
     require(c.method == "scratch" || !a.base.empty(), "a base checkpoint is needed (or --method scratch)", {{}, {}, "--base"});
     if (c.method != "scratch") {
       // The frozen base's architecture and, unless --motions, its motion set A come from its checkpoint.
-      const Checkpoint base_file = load_checkpoint(a.base);
-      require(!base_file.contains("residual_config"),
+      base_file = std::make_unique<Checkpoint>(load_checkpoint(a.base));
+      require(!base_file->contains("residual_config"),
               "a stage-2 (train-residual) checkpoint or export; --base takes a stage-1 checkpoint (train-base output) or its export",
               {a.base, std::nullopt, "residual_config"});
-      const BaseTrainConfig bc = config_from_string(base_file.get_string("config"), a.base + " (config)");
+      const BaseTrainConfig bc = config_from_string(base_file->get_string("config"), a.base + " (config)");
       c.rl.net.actor_hidden = bc.net.actor_hidden;
       c.rl.net.activation = bc.net.activation;
       c.rl.net.init_log_std = bc.net.init_log_std;
@@ -276,7 +277,7 @@ void run_train_residual(const Args& a) {
   if (c.method == "scratch" && !resume) resolve_action_space(c.rl, sim.skeleton(), base_lib.get());
   FrozenBase base = resume ? FrozenBase{base_actor_like(c, obs_dim, A), {}}
                     : c.method == "scratch" ? scratch_base(c, obs_dim, A)
-                                            : load_base_actor(load_checkpoint(a.base), obs_dim, A);
+                                            : load_base_actor(*base_file, obs_dim, A);
   ResidualSetup<MujocoHumanoidSim> setup = make_setup<MujocoHumanoidSim>(c, base_lib, new_lib, observation_parts(sim.skeleton()));
   if (c.task == "tracking") {
     require(!c.generator.empty(), "tracking needs --generator (train one with `maskadapt train-generator`)", {{}, {}, "--generator"});

@@ -77,6 +77,12 @@ inline std::string humanoid_mjcf(const HumanoidDescription& desc) {
 
   const std::string geom_common = " contype=\"1\" conaffinity=\"0\" condim=\"3\" friction=\"" +
                                   mjcf_num(desc.friction) + " 0.005 0.0001\"" + solref;
+  static const char* suffix[3] = {"_x", "_y", "_z"};
+  // "lower upper" of hinge k of body i (radians), shared by its joint and its actuator.
+  auto hinge_range = [&](int i, int k) {
+    const Index dof = s.dof_offset(i) + k;
+    return mjcf_num(s.dof_lower(dof)) + " " + mjcf_num(s.dof_upper(dof));
+  };
   std::function<void(int, int)> emit = [&](int i, int depth) {
     const std::string ind(static_cast<std::size_t>(2 * depth), ' ');
     const Vec3 pos = i == 0 ? Vec3(0, 0, desc.root_height) : Vec3(s.offsets.col(i));
@@ -86,10 +92,9 @@ inline std::string humanoid_mjcf(const HumanoidDescription& desc) {
     } else {
       const BodyDescription& b = desc.bodies[i];
       static const char* axes[3] = {"1 0 0", "0 1 0", "0 0 1"};
-      static const char* suffix[3] = {"_x", "_y", "_z"};
       for (int k = 0; k < 3; ++k)
         x += ind + "  <joint name=\"" + s.names[i] + suffix[k] + "\" type=\"hinge\" axis=\"" + axes[k] +
-             "\" limited=\"true\" range=\"" + mjcf_num(s.dof_lower(s.dof_offset(i) + k)) + " " + mjcf_num(s.dof_upper(s.dof_offset(i) + k)) +
+             "\" limited=\"true\" range=\"" + hinge_range(i, k) +
              "\" damping=\"" + mjcf_num(b.kd) + "\" armature=\"" + mjcf_num(b.armature) + "\"/>\n";
     }
     int g = 0;
@@ -119,10 +124,10 @@ inline std::string humanoid_mjcf(const HumanoidDescription& desc) {
   for (int i = 1; i < s.num_bodies(); ++i) {
     const double kp = desc.bodies[i].kp;
     for (int k = 0; k < 3; ++k) {
-      const std::string j = s.names[i] + (k == 0 ? "_x" : k == 1 ? "_y" : "_z");
+      const std::string j = s.names[i] + suffix[k];
       x += "    <general name=\"" + j + "\" joint=\"" + j + "\" gaintype=\"fixed\" biastype=\"affine\" gainprm=\"" +
            mjcf_num(kp) + "\" biasprm=\"0 " + mjcf_num(-kp) + " 0\" ctrllimited=\"true\" ctrlrange=\"" +
-           mjcf_num(s.dof_lower(s.dof_offset(i) + k)) + " " + mjcf_num(s.dof_upper(s.dof_offset(i) + k)) + "\"/>\n";
+           hinge_range(i, k) + "\"/>\n";
     }
   }
   x += "  </actuator>\n";
