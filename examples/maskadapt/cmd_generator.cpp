@@ -54,6 +54,10 @@ struct TrainOptions {
   std::string data, out, mix = "arms";
   double minutes = 0.0, arm_seconds = 120.0, guidance = -1.0, temperature = -1.0;  ///< < 0: the defaults (5, 1)
   double transition_fraction = 0.0;
+  double ema = 0.0;                 ///< EMA decay of the denoiser's weights (0: off)
+  long long select_every = 0;       ///< > 0: score every N diffusion iterations, keep the best
+  long long select_samples = 20;    ///< samples per prompt of each score
+  unsigned long long select_seed = 1001;
   long long iterations = 2000;
   long long vae_iterations = 0, diffusion_iterations = 0;  ///< > 0: this stage's count instead of --iterations
   long long batch = 64;
@@ -123,7 +127,29 @@ void run_train(const TrainOptions& o) {
   std::cout << "transition windows: " << std::count(data.transition.begin(), data.transition.end(), 1) << " of "
             << data.size() << ", drawn for " << 100.0 * o.transition_fraction << " % of each diffusion batch\n";
   tc.log_every = std::max<Index>(1, std::min<Index>(200, tc.vae_iterations / 5));
-  const auto rep = train_generator(g, data, tc, rng, [](const std::string& s) { std::cout << s << std::endl; });
+  tc.ema_decay = o.ema;
+  tc.select_every = o.select_every;
+  // Selection (--select-every): the arm-following accuracy of eval-generator, but on its own draws —
+  // a classifier fitted on other blended windows (seed 777, not eval-generator's 12345) and sample
+  // seeds from --select-seed (default 1001+, disjoint from eval-generator's 1+) — so the figure that
+  // eval-generator reports afterwards was not the one maximised.
+  GeneratorScore score;
+  std::unique_ptr<GeneratorEvalSet> select_set;
+  if (o.select_every > 0) {
+    Rng select_rng(777);
+    select_set = std::make_unique<GeneratorEvalSet>(make_generator_eval_set(root, skel, select_rng));
+    score = [&, samples = o.select_samples, seed = o.select_seed](const BuiltinGenerator& gen) {
+      PromptEvalOptions po;
+      po.samples = samples;
+      po.seed = seed;
+      return evaluate_prompts(gen, select_set->prompts, select_set->histories, select_set->classifier, po).overall_accuracy();
+    };
+    std::cout << "selection: every " << o.select_every << " diffusion iterations, arm-following accuracy of "
+              << o.select_samples << " samples per prompt (seeds " << o.select_seed << "+, classifier of draw 777)\n";
+  }
+  const auto rep = train_generator(g, data, tc, rng, [](const std::string& s) { std::cout << s << std::endl; }, score);
+  nlohmann::json snapshots = nlohmann::json::array();
+  for (const auto& sn : rep.snapshots) snapshots.push_back({{"iteration", sn.iteration}, {"score", sn.score}});
   g.set_arms_pool(pool);
   g.set_provenance({{"command", cli::invocation()},
                     {"git_commit", cli::build_commit()},
@@ -140,11 +166,21 @@ void run_train(const TrainOptions& o) {
                     {"vae_recon", rep.vae_final.recon},
                     {"diffusion_iterations", rep.diffusion_iterations},
                     {"diffusion_seconds", rep.diffusion_seconds},
-                    {"diffusion_x0_loss", rep.diffusion_final}});
+                    {"diffusion_x0_loss", rep.diffusion_final},
+                    {"ema_decay", o.ema},
+                    {"select_every", o.select_every},
+                    {"select_samples", o.select_samples},
+                    {"select_seed", o.select_seed},
+                    {"selected_iteration", rep.selected_iteration},
+                    {"snapshots", snapshots}});
   g.save(o.out);
   std::cout << "trained: vae " << rep.vae_iterations << " it in " << rep.vae_seconds << " s (recon " << rep.vae_final.recon
             << ", kl " << rep.vae_final.kl << "), diffusion " << rep.diffusion_iterations << " it in "
-            << rep.diffusion_seconds << " s (x0 loss " << rep.diffusion_final << ")\nwrote " << o.out << "\n";
+            << rep.diffusion_seconds << " s (x0 loss " << rep.diffusion_final << ")";
+  if (o.select_every > 0)
+    std::cout << "; kept the weights of iteration " << rep.selected_iteration << " of " << rep.snapshots.size()
+              << " scored (" << rep.select_seconds << " s scoring)";
+  std::cout << "\nwrote " << o.out << "\n";
 }
 
 /// `--from CLIP[:SECONDS]`: H frames of a clip ending at SECONDS (default 1 s; clamped to the
@@ -336,6 +372,15 @@ const bool registered = maskadapt::cli::register_command([](CLI::App& app) {
   train->add_option("--transition-fraction", topt->transition_fraction,
                     "share of each diffusion batch drawn from the windows where the behaviour switches (default 0: uniform)")
       ->check(real_in(0, 1));
+  train->add_option("--ema", topt->ema, "exponential moving average of the denoiser's weights, decay in [0, 1) (default 0: off, the last weights)")
+      ->check(real_in(0, 1, false, true));
+  train->add_option("--select-every", topt->select_every,
+                    "score the diffusion stage every N iterations by arm-following accuracy on held-out draws and keep the best weights (needs the shared arm clips; default 0: off)")
+      ->transform(non_negative_integer());
+  train->add_option("--select-samples", topt->select_samples, "samples per prompt of each --select-every score (default 20)")
+      ->transform(integer_in(2, 10000));
+  train->add_option("--select-seed", topt->select_seed, "first sample seed of the --select-every scores (default 1001; eval-generator uses 1+)")
+      ->transform(non_negative_integer());
   train->add_option("--seed", topt->seed, "random seed")->transform(non_negative_integer());
   train->add_option("--guidance", topt->guidance, "classifier-free guidance weight stored with the model (default 5)")
       ->check(non_negative_real());

@@ -162,3 +162,79 @@ TEST(BuiltinGenerator, GeneratesDeterministicallyAndSavesLoadsExactly) {
   EXPECT_THROW(BuiltinGenerator::load(path, skel), Error);
   std::filesystem::remove(path);
 }
+
+namespace {
+
+/// The denoiser's parameters (projection, then network) after training a fresh small generator
+/// (seed 5) for `diffusion` iterations with `tc`'s other settings.
+VectorXf denoiser_after(const PrimitiveDataset& data, GeneratorTrainConfig tc, Index diffusion,
+                        const GeneratorScore& score = {}, GeneratorTrainReport* report = nullptr) {
+  Rng rng(5);
+  BuiltinGenerator g(humanoid_skeleton(), small_config(), rng);
+  tc.vae_iterations = 3;
+  tc.diffusion_iterations = diffusion;
+  tc.batch = 8;
+  const auto rep = train_generator(g, data, tc, rng, {}, score);
+  if (report) *report = rep;
+  const auto& p = g.denoiser().projection().params();
+  const auto& n = g.denoiser().network().params();
+  VectorXf all(p.size() + n.size());
+  all << p, n;
+  return all;
+}
+
+}  // namespace
+
+TEST(TrainGenerator, KeepsTheMovingAverageOfTheDenoiserWeights) {
+  // With decay d the kept weights are θ̄₃ where θ̄₀ = θ₀ and θ̄ₖ₊₁ = dₖ θ̄ₖ + (1 − dₖ) θₖ₊₁,
+  // dₖ = min(d, (1 + k) / (10 + k)); θₖ are the weights of plain runs of k iterations (the EMA draws
+  // no random numbers, so every run follows the same stream).
+  const auto data = make_primitive_dataset(humanoid_skeleton(), test::make_clips(), 5, 15, 3);
+  GeneratorTrainConfig plain;
+  std::vector<VectorXf> theta;
+  for (Index k = 0; k <= 3; ++k) theta.push_back(denoiser_after(data, plain, k));
+  ASSERT_GT((theta[3] - theta[0]).norm(), 0.0f);
+  GeneratorTrainConfig ema = plain;
+  ema.ema_decay = 0.15;  // between d₀ = 0.1 and d₁ = 2/11, so both branches of the min are used
+  VectorXf expect = theta[0];
+  for (Index k = 0; k < 3; ++k) {
+    const float d = static_cast<float>(std::min(0.15, (1.0 + k) / (10.0 + k)));
+    expect = d * expect + (1.0f - d) * theta[static_cast<std::size_t>(k + 1)];
+  }
+  const VectorXf got = denoiser_after(data, ema, 3);
+  EXPECT_LT((got - expect).cwiseAbs().maxCoeff(), 1e-6f);
+  EXPECT_GT((got - theta[3]).cwiseAbs().maxCoeff(), 1e-4f) << "the moving average must differ from the last weights";
+}
+
+TEST(TrainGenerator, SelectionKeepsTheBestScoredSnapshotExactly) {
+  const auto data = make_primitive_dataset(humanoid_skeleton(), test::make_clips(), 5, 15, 3);
+  GeneratorTrainConfig tc;
+  tc.select_every = 2;
+  // A score that peaks at the second snapshot (iteration 4) of 2, 4, 6, 7.
+  int calls = 0;
+  const GeneratorScore score = [&](const BuiltinGenerator&) { return ++calls == 2 ? 1.0 : 0.0; };
+  GeneratorTrainReport rep;
+  const VectorXf kept = denoiser_after(data, tc, 7, score, &rep);
+  ASSERT_EQ(rep.snapshots.size(), 4u);
+  EXPECT_EQ(rep.snapshots[0].iteration, 2);
+  EXPECT_EQ(rep.snapshots[3].iteration, 7);
+  EXPECT_EQ(rep.selected_iteration, 4);
+  EXPECT_EQ(rep.diffusion_iterations, 7);
+  // Bit for bit the weights of a plain 4-iteration run: scoring neither draws random numbers nor
+  // disturbs the optimiser.
+  const VectorXf four = denoiser_after(data, GeneratorTrainConfig{}, 4);
+  EXPECT_EQ(kept, four);
+  EXPECT_NE(kept, denoiser_after(data, GeneratorTrainConfig{}, 7));
+}
+
+TEST(TrainGenerator, RefusesBadSelectionAndAverageSettings) {
+  const auto data = make_primitive_dataset(humanoid_skeleton(), test::make_clips(), 5, 15, 3);
+  GeneratorTrainConfig tc;
+  tc.select_every = 2;  // without a score function
+  EXPECT_THROW(denoiser_after(data, tc, 4), Error);
+  tc.select_every = 0;
+  tc.ema_decay = 1.0;
+  EXPECT_THROW(denoiser_after(data, tc, 4), Error);
+  tc.ema_decay = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_THROW(denoiser_after(data, tc, 4), Error);
+}

@@ -39,6 +39,7 @@
 #include <chrono>
 #include <filesystem>
 #include <functional>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -302,6 +303,20 @@ struct GeneratorTrainConfig {
   /// a prompt applied to a history that shows something else — and they are ~10 % of the windows
   /// (4,732 of 47,768 in the arm-switch corpus).
   double transition_fraction = 0.0;
+  /// Stage 2: exponential moving average of the denoiser's weights (projection and network),
+  /// θ̄ ← d·θ̄ + (1 − d)·θ after every step, with d warmed up as min(d, (1 + it) / (10 + it)). The
+  /// generator keeps θ̄ (or the selected snapshot of it), not the last θ. 0: off (the last weights).
+  double ema_decay = 0.0;
+  /// Stage 2: every `select_every` iterations (and after the last) the weights the generator would
+  /// keep are scored by `select` (a held-out measure, higher is better) and the best are kept:
+  /// early stopping without stopping. 0: off.
+  Index select_every = 0;
+};
+
+/// One scored snapshot of stage 2 (`GeneratorTrainConfig::select_every`).
+struct GeneratorSnapshotScore {
+  Index iteration = 0;
+  double score = 0.0;
 };
 
 struct GeneratorTrainReport {
@@ -309,18 +324,28 @@ struct GeneratorTrainReport {
   double vae_seconds = 0.0, diffusion_seconds = 0.0;
   VaeLosses vae_final;              ///< mean over the last log window
   double diffusion_final = 0.0;     ///< mean x₀ loss over the last log window
+  std::vector<GeneratorSnapshotScore> snapshots;  ///< scored snapshots, in order (selection on)
+  Index selected_iteration = 0;     ///< the snapshot kept (selection on); else the last iteration
+  double select_seconds = 0.0;      ///< time spent scoring (not part of diffusion_seconds' budget check)
 };
+
+/// Scores a generator for `GeneratorTrainConfig::select_every` (higher is better).
+using GeneratorScore = std::function<double(const BuiltinGenerator&)>;
 
 /// Trains `g` on `data` (windows of g's H and F frames). `log` receives progress lines.
 inline GeneratorTrainReport train_generator(BuiltinGenerator& g, const PrimitiveDataset& data,
                                             const GeneratorTrainConfig& cfg, Rng& rng,
-                                            const std::function<void(const std::string&)>& log = {}) {
+                                            const std::function<void(const std::string&)>& log = {},
+                                            const GeneratorScore& select = {}) {
   require(data.history_frames == g.history_frames() && data.future_frames == g.future_frames() &&
               data.frame_dim == g.vae().frame_dim(),
           "dataset windows do not match the generator's H, F or frame size", {{}, {}, "dataset"});
   require(data.size() >= 1 && cfg.batch >= 1, "need data and a positive batch", {{}, {}, "batch"});
   require(cfg.transition_fraction >= 0.0 && cfg.transition_fraction <= 1.0, "transition_fraction must lie in [0, 1]",
           {{}, {}, "transition_fraction"});
+  require(cfg.ema_decay >= 0.0 && cfg.ema_decay < 1.0, "ema_decay must lie in [0, 1)", {{}, {}, "ema_decay"});
+  require(cfg.select_every >= 0, "select_every must be ≥ 0", {{}, {}, "select_every"});
+  require(cfg.select_every == 0 || static_cast<bool>(select), "select_every needs a score function", {{}, {}, "select"});
   using clock = std::chrono::steady_clock;
   auto say = [&](const std::string& s) { if (log) log(s); };
   GeneratorTrainReport rep;
@@ -382,8 +407,43 @@ inline GeneratorTrainReport train_generator(BuiltinGenerator& g, const Primitive
     for (std::size_t n = 0; n < data.transition.size(); ++n)
       if (data.transition[n]) transitions.push_back(static_cast<Index>(n));
     const double oversample = transitions.empty() ? 0.0 : cfg.transition_fraction;
+    // The weights kept: the EMA θ̄ when on, else θ. `kept` swaps them into g for scoring.
+    auto& proj = g.denoiser().projection().block();
+    auto& net = g.denoiser().network().block();
+    VectorXf ema_proj = proj.params(), ema_net = net.params();
+    VectorXf best_proj, best_net;
+    double best_score = -std::numeric_limits<double>::infinity();
+    auto with_kept_weights = [&](const auto& fn) {
+      if (cfg.ema_decay > 0) {
+        VectorXf live_proj = proj.params(), live_net = net.params();
+        proj.params() = ema_proj;
+        net.params() = ema_net;
+        fn();
+        proj.params() = live_proj;
+        net.params() = live_net;
+      } else {
+        fn();
+      }
+    };
+    auto score_snapshot = [&](Index iteration) {
+      const auto s0 = clock::now();
+      with_kept_weights([&] {
+        const double sc = select(g);
+        rep.snapshots.push_back({iteration, sc});
+        if (sc > best_score) {
+          best_score = sc;
+          best_proj = proj.params();
+          best_net = net.params();
+          rep.selected_iteration = iteration;
+        }
+        say("diffusion " + std::to_string(iteration) + ": held-out score " + std::to_string(sc) +
+            (rep.selected_iteration == iteration ? " (best so far)" : ""));
+      });
+      rep.select_seconds += std::chrono::duration<double>(clock::now() - s0).count();
+    };
+    double paused = 0.0;  // seconds spent scoring, not charged to the stage's budget
     for (Index it = 0; it < cfg.diffusion_iterations; ++it) {
-      const double el = std::chrono::duration<double>(clock::now() - t0).count();
+      const double el = std::chrono::duration<double>(clock::now() - t0).count() - paused;
       if (stage_budget > 0 && el > stage_budget) break;
       auto idx = sample_indices(data.size(), cfg.batch, rng);
       if (oversample > 0)
@@ -397,6 +457,11 @@ inline GeneratorTrainReport train_generator(BuiltinGenerator& g, const Primitive
         if (!feats.empty()) tf.col(j) = feats[rng.uniform_int(feats.size())];
       }
       acc += g.denoiser().train_step(g.schedule(), x0, tf, gather_columns(hn_all, idx), adam, rng);
+      if (cfg.ema_decay > 0) {
+        const float d = static_cast<float>(std::min(cfg.ema_decay, (1.0 + static_cast<double>(it)) / (10.0 + static_cast<double>(it))));
+        ema_proj = d * ema_proj + (1.0f - d) * proj.params();
+        ema_net = d * ema_net + (1.0f - d) * net.params();
+      }
       ++n_acc;
       ++rep.diffusion_iterations;
       if ((it + 1) % log_every == 0 || it + 1 == cfg.diffusion_iterations) {
@@ -405,9 +470,26 @@ inline GeneratorTrainReport train_generator(BuiltinGenerator& g, const Primitive
         acc = 0.0;
         n_acc = 0;
       }
+      if (cfg.select_every > 0 && (it + 1) % cfg.select_every == 0 && it + 1 < cfg.diffusion_iterations) {
+        const double before = rep.select_seconds;
+        score_snapshot(it + 1);
+        paused += rep.select_seconds - before;
+      }
     }
     if (n_acc > 0) rep.diffusion_final = acc / n_acc;
-    rep.diffusion_seconds = std::chrono::duration<double>(clock::now() - t0).count();
+    if (cfg.select_every > 0 && (rep.snapshots.empty() || rep.snapshots.back().iteration != rep.diffusion_iterations))
+      score_snapshot(rep.diffusion_iterations);
+    if (cfg.select_every > 0) {
+      proj.params() = best_proj;
+      net.params() = best_net;
+    } else {
+      rep.selected_iteration = rep.diffusion_iterations;
+      if (cfg.ema_decay > 0) {
+        proj.params() = ema_proj;
+        net.params() = ema_net;
+      }
+    }
+    rep.diffusion_seconds = std::chrono::duration<double>(clock::now() - t0).count() - paused;
   }
   return rep;
 }
