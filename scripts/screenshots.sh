@@ -13,7 +13,9 @@
 #   track_ours/play.json                              → tracking.png
 #   ablation/{amp,mask_no_mi,mi_0.1,mi_1.0}/log.jsonl → training_logs.png (episode_length, mi_kl)
 # and, from models/ with the built `maskadapt` (MASKADAPT_CLI), shipped_walker.png (SHIPPED_T, default 2 s)
-# and fig5c_viewer_{before,after}.png (models/table2/sneak_ours_s1.bin, mask switched at 3 s).
+# and fig5c_viewer_{before,after}.png (models/table2/sneak_ours_s1.bin, mask switched at 3 s), and
+# generator_switch_{walk,wave}.png (models/text_generator.bin, "0:walk,2:wave right hand" from a
+# Bandai walk in $MASKADAPT_DATA_DIR).
 # Times: WALK_T (default 0.6 s: the short CPU-trained bases fall after ≈1 s), SWITCH_T (the switch, default 5 s; pictures at SWITCH_T − 1 s and
 # SWITCH_T + 1.5 s), TRACK_T (default 0.6 s, before the fall).
 set -uo pipefail
@@ -138,6 +140,23 @@ if have "$model" "$cli"; then
     take fig5c_viewer_after.png --rollout "$rollout" --label "models/table2/sneak_ours_s1.bin: lower body masked (sneak)" --time 4.5
   else
     echo "screenshots: $picture: maskadapt play-residual failed" >&2
+    failed=$((failed + 1))
+  fi
+fi
+
+# (g) the shipped text generator (issue 19) switching from "walk" to "wave right hand" at 2 s, from a
+# real Bandai walk (needs the shared data): kinematic frames, not a simulation.
+picture="generator_switch_walk.png, generator_switch_wave.png"
+walk="${MASKADAPT_DATA_DIR:-$repo/../shared/data}/motions/bandai/locomotion/dataset-1_walk_normal_001.bvh"
+if have "$repo/models/text_generator.bin" "$cli" "$walk"; then
+  rollout="$(mktemp -d)/generator_switch.json"
+  if (cd "$repo" && "$cli" generate --text "0:walk,2:wave right hand" --seconds 5 --seed 1 --from "$walk:2" \
+        --rollout "$rollout" >/dev/null); then
+    command_of "$rollout"
+    take generator_switch_walk.png --rollout "$rollout" --label "models/text_generator.bin: 'walk' (1.5 s)" --time 1.5
+    take generator_switch_wave.png --rollout "$rollout" --label "models/text_generator.bin: 'wave right hand' from 2 s (3.5 s)" --time 3.5
+  else
+    echo "screenshots: $picture: maskadapt generate failed" >&2
     failed=$((failed + 1))
   fi
 fi

@@ -4,6 +4,7 @@
 #include "cli_checks.hpp"
 #include "command_registry.hpp"
 
+#include <maskadapt/eval/rollout_file.hpp>
 #include <maskadapt/humanoid/description.hpp>
 #include <maskadapt/motion/bvh.hpp>
 #include <maskadapt/motion/retarget.hpp>
@@ -66,7 +67,7 @@ struct TrainOptions {
 };
 
 struct GenerateOptions {
-  std::string checkpoint, text = "raise arms", bvh, from = "walk";
+  std::string checkpoint, text = "raise arms", bvh, rollout, from = "walk";
   double seconds = 5.0, guidance = -1.0, temperature = -1.0;  ///< < 0: not given (the checkpoint's)
   unsigned long long seed = 1;
 };
@@ -228,17 +229,29 @@ void run_generate(const GenerateOptions& o) {
   const Trajectory t = rollout(g, schedule, hist, n, rng);
   std::cout << "generated " << t.num_frames() << " frames (" << o.seconds << " s at 30 Hz) for '" << o.text << "' from "
             << o.from << " with " << path << "\n";
+  MotionClip c;
+  c.name = "generated";
+  c.labels = {o.text};
+  c.fps = 30.0;
+  c.resize(static_cast<int>(t.num_frames()), skel.num_dofs());
+  c.root_pos = t.root_pos;
+  for (Index i = 0; i < t.num_frames(); ++i) c.set_rot(static_cast<int>(i), t.root_rot[static_cast<std::size_t>(i)]);
+  c.q = t.q;
   if (!o.bvh.empty()) {
-    MotionClip c;
-    c.name = "generated";
-    c.labels = {o.text};
-    c.fps = 30.0;
-    c.resize(static_cast<int>(t.num_frames()), skel.num_dofs());
-    c.root_pos = t.root_pos;
-    for (Index i = 0; i < t.num_frames(); ++i) c.set_rot(static_cast<int>(i), t.root_rot[static_cast<std::size_t>(i)]);
-    c.q = t.q;
     bvh::write(o.bvh, clip_to_bvh(c, skel));
     std::cout << "wrote " << o.bvh << "\n";
+  }
+  if (!o.rollout.empty()) {  // the viewer's format: kinematic frames, the prompts as its text track
+    eval::Rollout r = eval::make_rollout(humanoid_description(), c.fps);
+    r.metadata.command = cli::invocation();
+    r.metadata.checkpoint = path;
+    r.metadata.seed = static_cast<std::int64_t>(o.seed);
+    r.metadata.extra["from"] = o.from;
+    r.metadata.extra["kind"] = "generated (kinematic, not simulated)";
+    for (const auto& tt : schedule) r.texts.push_back({tt.start_s, tt.text});
+    for (int i = 0; i < c.num_frames(); ++i) eval::add_frame(r, forward_kinematics(skel, c.frame(i)), PartMask::none());
+    eval::write_rollout(r, o.rollout);
+    std::cout << "wrote " << o.rollout << "\n";
   }
 }
 
@@ -402,6 +415,7 @@ const bool registered = maskadapt::cli::register_command([](CLI::App& app) {
       ->check(real_in(0, 1, true, false));
   gen->add_option("--seed", gopt->seed, "random seed")->transform(non_negative_integer());
   gen->add_option("--bvh", gopt->bvh, "write the motion as BVH");
+  gen->add_option("--rollout", gopt->rollout, "write the motion as a rollout for the web viewer (tools/viewer), the prompts as its text track");
   gen->callback([gopt] { run_generate(*gopt); });
 
   auto eopt = std::make_shared<EvalOptions>();

@@ -1,10 +1,11 @@
 // The generator committed under models/ (models/README.md "text_generator.bin"): it loads, has the
 // documented sizes and provenance, and — when the shared data are present — follows its arms
 // prompts from a walking history: the default probe (1-nearest neighbour, tracking/arm_eval.hpp)
-// recovers the prompt in ≥ 65 % of 10 samples per prompt over the 13 prompts (chance: 1/13 ≈ 8 %;
-// the first generator scored 7.7 %), and samples from different seeds differ. 65 % is a
-// regression floor under the measured 68.5 % (docs/generator.md): issue 19's 80 % is NOT met. The
-// probe is not what limits it: it recovers ≥ 90 % (measured 95.7 %) of held-out real windows.
+// recovers the prompt in ≥ 80 % of 10 samples per prompt over the 13 prompts (issue 19's bar;
+// measured 86.2 %, docs/generator.md; chance: 1/13 ≈ 8 %; the first generator scored 7.7 %), and
+// samples from different seeds differ. The model was chosen on other draws (a classifier fitted on
+// blends of seed 777, sample seeds 1001+; `train-generator --select-every`), not on these. The
+// probe is not what limits the figure: it recovers ≥ 90 % (measured 95.7 %) of held-out real windows.
 #include <maskadapt/humanoid/description.hpp>
 #include <maskadapt/tracking/arm_data.hpp>
 #include <maskadapt/tracking/arm_eval.hpp>
@@ -69,7 +70,7 @@ TEST(ShippedGenerator, FollowsItsArmsPromptsFromAWalk) {
   std::string table;
   for (std::size_t i = 0; i < r.classes.size(); ++i)
     table += r.classes[i] + ": " + std::to_string(r.accuracy[i]) + " (diversity " + std::to_string(r.diversity[i]) + ")\n";
-  EXPECT_GE(r.overall_accuracy(), 0.65) << table;
+  EXPECT_GE(r.overall_accuracy(), 0.8) << table;
   // the wave prompts, the classes the probe separates best on real motion, are followed
   for (std::size_t i = 0; i < 3; ++i) EXPECT_GE(r.accuracy[i], 0.8) << r.classes[i] << "\n" << table;
   for (std::size_t i = 0; i < r.classes.size(); ++i) EXPECT_GT(r.diversity[i], 1e-3) << r.classes[i];
