@@ -217,6 +217,7 @@ void run_train_residual(const Args& a) {
     c.base_checkpoint = a.base;
     c.gain = a.gain;
     c.designated = a.designated;
+    c.texts = a.texts;
     c.generator = a.generator;
     c.goal_parts = a.goal_parts;
     require(a.goal_parts.empty() || is_goal_task(c.task),
@@ -282,8 +283,9 @@ void run_train_residual(const Args& a) {
   if (c.task == "tracking") {
     require(!c.generator.empty(), "tracking needs --generator (train one with `maskadapt train-generator`)", {{}, {}, "--generator"});
     auto gen = std::make_shared<tracking::BuiltinGenerator>(tracking::BuiltinGenerator::load(c.generator, sim.skeleton()));
-    // prompts: --texts, else the arms pool stored in the generator (issue 19), else from the clips
-    std::vector<std::string> texts = !a.texts.empty()           ? a.texts
+    // prompts: --texts (kept in the config, so --resume samples the same), else the arms pool stored
+    // in the generator (issue 19), else from the clips
+    std::vector<std::string> texts = !c.texts.empty()           ? c.texts
                                      : !gen->arms_pool().empty() ? gen->arms_pool()
                                                                  : default_text_pool(sim.skeleton());
     std::cout << "train-residual: text pool (" << texts.size() << "):";
@@ -581,7 +583,9 @@ void run_eval(const EvalArgs& a) {
     auto gen = tracking::BuiltinGenerator::load(gpath, sim.skeleton());
     TrackingEvalOptions opt;
     opt.prompts = a.prompts;
-    if (opt.prompts.empty()) {  // the pool, topped up with the fixed prompts it lacks (10 with the shared clips)
+    if (opt.prompts.empty() && !c.texts.empty()) opt.prompts = c.texts;  // the run's own prompts
+    if (opt.prompts.empty()) opt.prompts = gen.arms_pool();                 // else the generator's (issue 19)
+    if (opt.prompts.empty()) {  // else the clips' pool, topped up with the fixed prompts it lacks
       opt.prompts = default_text_pool(sim.skeleton());
       for (const char* t : {"raise arms", "wave hands", "punch", "wash self"})
         if (std::find(opt.prompts.begin(), opt.prompts.end(), t) == opt.prompts.end()) opt.prompts.push_back(t);
@@ -707,7 +711,7 @@ const bool registered = maskadapt::cli::register_command([](CLI::App& app) {
   v->add_option("--frames", e->frames, "composition: frames per env (default 1000)")->transform(positive_integer());
   v->add_option("--threshold", e->threshold_per_body, "composition: visitation threshold per body (m, default 0.1)")
       ->check(positive_real());
-  v->add_option("--prompts", e->prompts, "tracking: prompts (default: the arms text pool)");
+  v->add_option("--prompts", e->prompts, "tracking: prompts (default: the run's --texts, else the generator's arms pool)");
   v->add_option("--num-prompts", e->num_prompts, "tracking: at most this many prompts (default 10)")
       ->transform(positive_integer(std::numeric_limits<int>::max()));
   v->add_option("--seconds", e->seconds, "tracking: seconds per episode (default 5)")->check(positive_real(kMaxEpisodeSeconds));

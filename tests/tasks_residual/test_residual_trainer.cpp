@@ -832,3 +832,17 @@ TEST(ResidualExport, ActsAsTheCheckpointAndHoldsOnlyThePolicy) {
   EXPECT_EQ(p.export_git_commit, "abc1234");
   EXPECT_EQ(p.note, "unit test");
 }
+
+TEST(ResidualConfig, KeepsTheTrackingPromptsThroughJson) {
+  ResidualTrainConfig c;
+  c.task = "tracking";
+  c.texts = {"wave right hand", "punch"};
+  const auto back = residual_config_from_json(to_json(c));
+  EXPECT_EQ(back.texts, c.texts);
+  // a config written before the prompts were recorded: none (the generator's arms pool is used)
+  nlohmann::json old = to_json(c);
+  old.erase("texts");
+  EXPECT_TRUE(residual_config_from_json(old).texts.empty());
+  old["texts"] = 3;
+  EXPECT_THROW(residual_config_from_json(old, "run.bin"), Error);
+}

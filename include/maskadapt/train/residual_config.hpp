@@ -40,6 +40,7 @@ struct ResidualTrainConfig {
   double init_gain = 1.0;
   // tracking
   std::string designated = "arms";    ///< parts that follow the generated trajectory
+  std::vector<std::string> texts;     ///< prompts sampled for the goals; empty: the generator's arms pool (else the clips')
   // goal tasks
   std::string goal_parts;             ///< parts the residual also moves for the goal ("" none; adapt::ResidualConfig::goal_parts)
   Index goal_steps = 2;               ///< next target frames in the goal
@@ -85,6 +86,7 @@ inline nlohmann::json to_json(const ResidualTrainConfig& c) {
           {"gain", c.gain},
           {"init_gain", c.init_gain},
           {"designated", c.designated},
+          {"texts", c.texts},
           {"goal_parts", c.goal_parts},
           {"goal_steps", c.goal_steps},
           {"sample_every", c.sample_every},
@@ -110,6 +112,7 @@ inline ResidualTrainConfig residual_config_from_json(const nlohmann::json& j, co
     c.gain = j.at("gain");
     c.init_gain = j.at("init_gain");
     c.designated = j.at("designated");
+    c.texts = j.value("texts", std::vector<std::string>());  // (absent before it was recorded: the pool)
     c.goal_parts = j.value("goal_parts", std::string());  // (absent before goal parts existed: none)
     c.goal_steps = j.at("goal_steps");
     c.sample_every = j.at("sample_every");

@@ -1,0 +1,44 @@
+#!/usr/bin/env bash
+# Table 4 (issue 15, part 3): text-driven partial tracking, arms designated, with the shipped text
+# generator (models/text_generator.bin, issue 19) — ours (mask-invariant base + residual), CML-style
+# (the same base without its mask input + residual) and from scratch (no base) — one run at a time at
+# the same iteration budget, then eval-residual: 10 prompts × 5 s × 3 repeats.
+#
+#   scripts/table4_grid.sh                       # every cell, in order; cells already evaluated are skipped
+#   CELLS="ours cml" scripts/table4_grid.sh
+#   ITERATIONS=1500 THREADS=2 SEED=1 OUT=runs/t4 BIN=build/bin/maskadapt scripts/table4_grid.sh
+#
+# Resumable and extendable like scripts/table3_grid.sh: a cell whose checkpoint exists continues it
+# (--resume, bit-exact) up to ITERATIONS; a cell with an eval_it<ITERATIONS>.json is done.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+BIN=${BIN:-build/bin/maskadapt}
+BASE=${BASE:-models/mask_mi_walk_bandai.bin}
+GENERATOR=${GENERATOR:-models/text_generator.bin}
+MOTIONS=${MOTIONS:-bandai-walk}   # scratch's imitation set: the base's own walks
+ITERATIONS=${ITERATIONS:-1500}
+THREADS=${THREADS:-2}
+SEED=${SEED:-1}
+OUT=${OUT:-runs/t4}
+CELLS=${CELLS:-"ours cml scratch"}
+
+for method in $CELLS; do
+  dir="$OUT/tracking_${method}_s$SEED"
+  result="$dir/eval_it$ITERATIONS.json"
+  if [[ -f "$result" ]]; then
+    echo "== $method: done ($result)"
+    continue
+  fi
+  echo "== $method: $(date -u +%H:%M:%S) training to $ITERATIONS iterations in $dir"
+  if [[ -f "$dir/checkpoint.bin" ]]; then
+    "$BIN" train-residual --resume "$dir/checkpoint.bin" --iterations "$ITERATIONS" --out "$dir"
+  elif [[ "$method" == scratch ]]; then
+    "$BIN" train-residual --task tracking --method scratch --motions "$MOTIONS" --generator "$GENERATOR" \
+      --designated arms --threads "$THREADS" --iterations "$ITERATIONS" --seed "$SEED" --out "$dir"
+  else
+    "$BIN" train-residual --task tracking --method "$method" --base "$BASE" --generator "$GENERATOR" \
+      --designated arms --threads "$THREADS" --iterations "$ITERATIONS" --seed "$SEED" --out "$dir"
+  fi
+  "$BIN" eval-residual "$dir/checkpoint.bin" --task tracking --num-prompts 10 --seconds 5 --repeats 3 --out "$result"
+done
