@@ -7,8 +7,8 @@
 #include <maskadapt/eval/rollout_file.hpp>
 #include <maskadapt/humanoid/description.hpp>
 #include <maskadapt/motion/bvh.hpp>
-#include <maskadapt/motion/retarget.hpp>
-#include <maskadapt/motion/synthetic.hpp>
+#include <maskadapt/humanoid/retarget.hpp>
+#include <maskadapt/humanoid/synthetic.hpp>
 #include <maskadapt/tracking/arm_data.hpp>
 #include <maskadapt/tracking/arm_eval.hpp>
 #include <maskadapt/tracking/builtin_generator.hpp>

@@ -18,8 +18,8 @@
 #include <maskadapt/motion/bvh.hpp>
 #include <maskadapt/motion/clip.hpp>
 #include <maskadapt/motion/quality.hpp>
-#include <maskadapt/motion/retarget.hpp>
-#include <maskadapt/motion/synthetic.hpp>
+#include <maskadapt/humanoid/retarget.hpp>
+#include <maskadapt/humanoid/synthetic.hpp>
 
 #include <cmath>
 #include <cstdio>
@@ -73,7 +73,7 @@ void info(const MotionOptions& o) {
   }
   RetargetReport rep;
   const MotionClip c = load_any(o, &rep);
-  const QualityReport q = motion_quality(c);
+  const QualityReport q = motion_quality(c, humanoid_description());
   const std::string name = std::filesystem::path(o.file).filename().string();
   if (o.markdown) {
     std::printf("| %s | %d | %.0f | %.2f | %.3f | %.3f | %.3f | %.1f | %.1f%% | %.1f%% | %.1f%% |\n", name.c_str(),

@@ -8,7 +8,7 @@
 #include <maskadapt/train/config.hpp>
 #include <maskadapt/eval/rollout_file.hpp>
 #include <maskadapt/motion/bvh.hpp>
-#include <maskadapt/motion/retarget.hpp>
+#include <maskadapt/humanoid/retarget.hpp>
 #include <maskadapt/train/base_policy.hpp>
 #include <maskadapt/train/motion_sources.hpp>
 #include <maskadapt/train/play.hpp>

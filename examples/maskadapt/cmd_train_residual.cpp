@@ -11,8 +11,8 @@
 #include <maskadapt/core/checkpoint.hpp>
 #include <maskadapt/eval/rollout_file.hpp>
 #include <maskadapt/motion/bvh.hpp>
-#include <maskadapt/motion/synthetic.hpp>
-#include <maskadapt/motion/retarget.hpp>
+#include <maskadapt/humanoid/synthetic.hpp>
+#include <maskadapt/humanoid/retarget.hpp>
 #include <maskadapt/tracking/builtin_generator.hpp>
 #include <maskadapt/tracking/text_pool.hpp>
 #include <maskadapt/train/motion_sources.hpp>

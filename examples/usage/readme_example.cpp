@@ -5,7 +5,7 @@
 #include <maskadapt/humanoid/observation.hpp>
 #include <maskadapt/mask/apply.hpp>
 #include <maskadapt/motion/library.hpp>
-#include <maskadapt/motion/synthetic.hpp>
+#include <maskadapt/humanoid/synthetic.hpp>
 #include <maskadapt/sim/mujoco/humanoid_sim.hpp>
 #include <maskadapt/train/base_policy.hpp>
 
@@ -26,7 +26,7 @@ int main(int argc, char** argv) try {
   const auto& actor = base.policy.ac.actor;                        // π(a | [s̄ ; m]) with its normaliser
   const tasks::ActionSpace& actions = base.policy.actions;         // PD target = offset + scale ⊙ a
 
-  MotionLibrary walk;                                              // start mid-stride: a frame of the
+  MotionLibrary walk(skel);                                        // start mid-stride: a frame of the
   walk.add(synthetic_walk());                                      // built-in walk, with its velocities
   const KinematicState start = walk.state(0, 0.1);                 // (not the Bandai walks it learned
                                                                    //  from: some phases make it fall)

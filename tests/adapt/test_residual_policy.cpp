@@ -5,7 +5,7 @@
 #include <maskadapt/adapt/residual_policy.hpp>
 #include <maskadapt/humanoid/description.hpp>
 #include <maskadapt/humanoid/observation.hpp>
-#include <maskadapt/motion/synthetic.hpp>
+#include <maskadapt/humanoid/synthetic.hpp>
 #include <maskadapt/rl/discriminator.hpp>
 #include <maskadapt/tasks/composition.hpp>
 

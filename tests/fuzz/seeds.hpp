@@ -13,8 +13,8 @@
 #include <maskadapt/motion/bvh.hpp>
 #include <maskadapt/motion/clip.hpp>
 #include <maskadapt/motion/npz.hpp>
-#include <maskadapt/motion/retarget.hpp>
-#include <maskadapt/motion/synthetic.hpp>
+#include <maskadapt/humanoid/retarget.hpp>
+#include <maskadapt/humanoid/synthetic.hpp>
 
 #include <string>
 #include <utility>

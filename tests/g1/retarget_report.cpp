@@ -8,7 +8,7 @@
 // (import_motion: 30 Hz, grounded) and retargeted with the default G1RetargetOptions.
 #include <maskadapt/g1/retarget_quality.hpp>
 #include <maskadapt/motion/quality.hpp>
-#include <maskadapt/motion/retarget.hpp>
+#include <maskadapt/humanoid/retarget.hpp>
 
 #include <chrono>
 #include <cstdio>
@@ -50,7 +50,7 @@ int main(int argc, char** argv) {
     const std::string path = (motions / rel).string();
     try {
       const MotionClip src = import_motion(path);
-      const QualityReport sq = motion_quality(src);
+      const QualityReport sq = motion_quality(src, humanoid_description());
       G1RetargetReport rep;
       const auto t0 = std::chrono::steady_clock::now();
       const G1Clip g = retarget_to_g1(src, {}, &rep);

@@ -2,7 +2,7 @@
 // the box-constrained IK (Jacobian, reachable targets, limits), a standing pose, a shared walk,
 // bad input, the G1 clip file. No MuJoCo needed.
 #include <maskadapt/g1/retarget_quality.hpp>
-#include <maskadapt/motion/retarget.hpp>
+#include <maskadapt/humanoid/retarget.hpp>
 
 #include <gtest/gtest.h>
 

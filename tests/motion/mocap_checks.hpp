@@ -5,7 +5,7 @@
 // test_mocap_sets.cpp on the real Bandai, styles and CMU-131 clips.
 #include <maskadapt/humanoid/description.hpp>
 #include <maskadapt/motion/bvh.hpp>
-#include <maskadapt/motion/retarget.hpp>
+#include <maskadapt/humanoid/retarget.hpp>
 
 #include <algorithm>
 #include <cmath>
@@ -119,7 +119,7 @@ inline MocapCheck check_retarget(const bvh::Motion& m, const JointMap& map, cons
       ++toe_n;
     }
     double low = 1e300;
-    for (int f : geometry::foot_bodies()) low = std::min(low, geometry::lowest_point(desc, bs, f));
+    for (int f : desc.foot_bodies()) low = std::min(low, geometry::lowest_point(desc, bs, f));
     sole.push_back(low);
   }
   r.hip_height /= T;

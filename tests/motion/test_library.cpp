@@ -4,7 +4,8 @@
 #include <maskadapt/motion/blend.hpp>
 #include <maskadapt/motion/geometry.hpp>
 #include <maskadapt/motion/library.hpp>
-#include <maskadapt/motion/synthetic.hpp>
+#include <maskadapt/humanoid/observation.hpp>
+#include <maskadapt/humanoid/synthetic.hpp>
 
 #include <gtest/gtest.h>
 
@@ -35,7 +36,7 @@ MotionClip closed_form_clip() {
 }  // namespace
 
 TEST(MotionLibrary, InterpolationAndVelocitiesMatchClosedForms) {
-  MotionLibrary lib;
+  MotionLibrary lib(humanoid_skeleton());
   lib.add(closed_form_clip());
   const int knee = humanoid_skeleton().dof_offset(hb::LKnee) + 1;
   const double h = 1.0 / 30, w = 2 * kPi * kF;
@@ -62,7 +63,7 @@ TEST(MotionLibrary, InterpolationAndVelocitiesMatchClosedForms) {
 }
 
 TEST(MotionLibrary, BodyVelocitiesMatchFiniteDifferencesOfPositions) {
-  MotionLibrary lib;
+  MotionLibrary lib(humanoid_skeleton());
   lib.add(synthetic_walk());
   // the library differentiates over ±h = one frame; body velocities (FK of q̇) must agree with
   // the same central difference of body positions up to the curvature of the path (O(h²))
@@ -77,7 +78,7 @@ TEST(MotionLibrary, BodyVelocitiesMatchFiniteDifferencesOfPositions) {
 }
 
 TEST(MotionLibrary, LoopingAccumulatesTheRootOffset) {
-  MotionLibrary lib;
+  MotionLibrary lib(humanoid_skeleton());
   const MotionClip walk = synthetic_walk();
   lib.add(walk);
   const double P = walk.duration();
@@ -96,7 +97,7 @@ TEST(MotionLibrary, LoopingAccumulatesTheRootOffset) {
 }
 
 TEST(MotionLibrary, WeightedAndUniformSampling) {
-  MotionLibrary lib;
+  MotionLibrary lib(humanoid_skeleton());
   lib.add(synthetic_walk(), 1.0);
   lib.add(synthetic_jump(), 3.0);
   Rng rng(7);
@@ -122,7 +123,7 @@ TEST(MotionLibrary, WeightedAndUniformSampling) {
 }
 
 TEST(MotionLibrary, AmpWindowsAreObservationsOfFiveFrames) {
-  MotionLibrary lib;
+  MotionLibrary lib(humanoid_skeleton());
   lib.add(synthetic_kick());
   const Index d = observation_dim(humanoid_skeleton());
   ASSERT_EQ(d, kObservationDim);
@@ -212,7 +213,7 @@ TEST(Synthetic, ClipsAreGroundedValidAndLoop) {
     double zmin = 1e9;
     for (int t = 0; t < c.num_frames(); ++t) {
       const BodyStates b = forward_kinematics(d.skeleton, c.frame(t));
-      for (int f : geometry::foot_bodies()) zmin = std::min(zmin, geometry::lowest_point(d, b, f));
+      for (int f : d.foot_bodies()) zmin = std::min(zmin, geometry::lowest_point(d, b, f));
     }
     EXPECT_NEAR(zmin, 0.0, 1e-9);
     if (c.loop) {

@@ -9,8 +9,8 @@
 // al., "Motion Capture Dataset for Practical Use of AI-based Motion Editing and Stylization",
 // arXiv:2306.08861 (2023).
 #include <maskadapt/motion/quality.hpp>
-#include <maskadapt/motion/retarget.hpp>
-#include <maskadapt/motion/synthetic.hpp>
+#include <maskadapt/humanoid/retarget.hpp>
+#include <maskadapt/humanoid/synthetic.hpp>
 
 #include <gtest/gtest.h>
 

@@ -1,8 +1,8 @@
 // Retargeting: the humanoid onto itself is the identity (via BVH in both axis conventions and via
 // AMASS parameters); the shared CMU walk has plausible height, steps and little foot skating.
 #include <maskadapt/motion/quality.hpp>
-#include <maskadapt/motion/retarget.hpp>
-#include <maskadapt/motion/synthetic.hpp>
+#include <maskadapt/humanoid/retarget.hpp>
+#include <maskadapt/humanoid/synthetic.hpp>
 
 #include <gtest/gtest.h>
 
@@ -118,7 +118,7 @@ TEST(Retarget, CmuWalkIsPlausible) {
     EXPECT_NEAR(rep.source_fps, 120.0, 0.01);  // Frame Time .0083333
     // frame 0 (T-pose) dropped: (source frames − 2) / 4 + 1 frames at 30 Hz
     EXPECT_EQ(c.num_frames(), (rep.source_frames - 2) / 4 + 1);
-    const QualityReport q = motion_quality(c);
+    const QualityReport q = motion_quality(c, humanoid_description());
     EXPECT_GT(q.root_height_mean, 0.85);
     EXPECT_LT(q.root_height_mean, 1.0);
     const double speed = q.travel / q.duration;  // CMU walks: one pass across the room
@@ -160,7 +160,7 @@ TEST(Quality, SyntheticClipsAreClean) {
   for (const char* n : {"walk", "arms", "kick", "jump"}) {
     SCOPED_TRACE(n);
     const MotionClip c = synthetic_clip(n);
-    const QualityReport q = motion_quality(c);
+    const QualityReport q = motion_quality(c, humanoid_description());
     EXPECT_LT(q.foot_skating, 0.12);
     EXPECT_LT(q.penetration_max, 1e-9);
     EXPECT_EQ(q.limit_violation_fraction, 0.0);
@@ -176,7 +176,7 @@ TEST(Quality, DetectsPenetrationViolationsAndSelfCollision) {
   // frame 1: left arm folded through the chest
   c.q.col(1).segment<3>(humanoid_skeleton().dof_offset(hb::LShoulder)) = Vec3(0, 0, -2.5);
   c.q.col(1).segment<3>(humanoid_skeleton().dof_offset(hb::LElbow)) = Vec3(0, 0, -2.8);
-  const QualityReport q = motion_quality(c);
+  const QualityReport q = motion_quality(c, humanoid_description());
   EXPECT_NEAR(q.penetration_max, 0.05, 1e-6);
   EXPECT_NEAR(q.limit_violation_max, 0.3, 1e-9);
   EXPECT_GT(q.self_collision_fraction, 0.0);

@@ -3,7 +3,7 @@
 #include "test_support.hpp"
 
 #include <maskadapt/humanoid/description.hpp>
-#include <maskadapt/motion/synthetic.hpp>
+#include <maskadapt/humanoid/synthetic.hpp>
 #include <maskadapt/tracking/arm_data.hpp>
 #include <maskadapt/tracking/arm_eval.hpp>
 

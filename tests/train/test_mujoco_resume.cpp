@@ -3,7 +3,7 @@
 #include <maskadapt/sim/mujoco/humanoid_sim.hpp>
 #include <maskadapt/train/base_trainer.hpp>
 #include <maskadapt/motion/bvh.hpp>
-#include <maskadapt/motion/retarget.hpp>
+#include <maskadapt/humanoid/retarget.hpp>
 #include <maskadapt/train/motion_sources.hpp>
 #include <maskadapt/train/play.hpp>
 

@@ -4,7 +4,7 @@
 #include "tiny_sim.hpp"
 
 #include <maskadapt/motion/bvh.hpp>
-#include <maskadapt/motion/retarget.hpp>
+#include <maskadapt/humanoid/retarget.hpp>
 #include <maskadapt/train/eval_base.hpp>
 #include <maskadapt/train/play.hpp>
 
@@ -206,7 +206,7 @@ TEST(EvalBase, ReferenceSpeedIsTheClipsHorizontalPathOverTheirDuration) {
     }
     return c;
   };
-  MotionLibrary lib;
+  MotionLibrary lib(humanoid_skeleton());
   lib.add(straight(61, 1.5));
   lib.add(straight(31, 0.0));
   EXPECT_NEAR(reference_mean_speed(lib), 1.0, 1e-12);

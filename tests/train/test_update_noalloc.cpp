@@ -13,7 +13,7 @@
 #include "trainer_test_helpers.hpp"
 
 #include <maskadapt/motion/library.hpp>
-#include <maskadapt/motion/synthetic.hpp>
+#include <maskadapt/humanoid/synthetic.hpp>
 #include <maskadapt/train/base_trainer.hpp>
 
 #include <gtest/gtest.h>
@@ -98,7 +98,7 @@ TEST(UpdateNoAlloc, UpdateFromRolloutAllocatesNoMatrixAfterWarmup) {
 }
 
 TEST(UpdateNoAlloc, LibraryRealWindowsAllocateNoMatrixAfterWarmup) {
-  MotionLibrary lib;
+  MotionLibrary lib(humanoid_skeleton());
   lib.add(synthetic_walk());
   lib.add(synthetic_kick());
   MatrixXf out(lib.amp_window_dim(), 16);

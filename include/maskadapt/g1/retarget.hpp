@@ -1,7 +1,7 @@
 #pragma once
 /// \file retarget.hpp
 /// Retargeting reference-humanoid motion (a `MotionClip` on the 22-body skeleton, what
-/// motion/retarget.hpp makes of CMU/Bandai/styles BVH and AMASS) onto the G1-like robot, by an
+/// humanoid/retarget.hpp makes of CMU/Bandai/styles BVH and AMASS) onto the G1-like robot, by an
 /// optimisation-based inverse kinematics per frame.
 ///
 /// Per frame t (docs/characters.md, "Retargeting onto the G1"):

@@ -17,6 +17,7 @@
 ///    SMPL's (x left, y up, z forward) to ours and made left/right symmetric.
 #include <maskadapt/core/types.hpp>
 #include <maskadapt/mask/parts.hpp>
+#include <maskadapt/motion/geom.hpp>
 #include <maskadapt/motion/skeleton.hpp>
 
 #include <array>
@@ -40,16 +41,6 @@ inline constexpr std::array<std::string_view, kHumanoidNumBodies> kHumanoidBodyN
     "Pelvis", "L_Hip",   "R_Hip",      "Torso",      "L_Knee",  "R_Knee",  "Spine",   "L_Ankle",
     "R_Ankle", "Chest",  "L_Toe",      "R_Toe",      "Neck",    "L_Thorax", "R_Thorax", "Head",
     "L_Shoulder", "R_Shoulder", "L_Elbow", "R_Elbow", "L_Wrist", "R_Wrist"};
-
-/// A collision/inertia primitive attached to a body, in that body's frame (metres, kg).
-struct Geom {
-  enum class Type { Capsule, Box, Sphere };
-  Type type = Type::Sphere;
-  Vec3 a = Vec3::Zero();  ///< capsule: segment start; box/sphere: centre
-  Vec3 b = Vec3::Zero();  ///< capsule: segment end; box: half sizes; sphere: unused
-  double radius = 0.0;    ///< capsule/sphere radius (m); box: unused
-  double mass = 0.0;      ///< kg (MuJoCo derives the inertia from the shape and this mass)
-};
 
 /// Per-body physical properties and PD gains of the joint the body hangs from.
 struct BodyDescription {
@@ -96,6 +87,9 @@ struct HumanoidDescription {
   PhysicsOptions physics;               ///< solver, integrator, cone, Jacobian, contact solref
 
   double control_dt() const { return physics_dt * substeps; }
+  /// The bodies that carry the feet, {L_Ankle, L_Toe, R_Ankle, R_Toe} (motion/quality.hpp's
+  /// contacts and skating; `CharacterGeometry`).
+  std::array<int, 4> foot_bodies() const { return {hb::LAnkle, hb::LToe, hb::RAnkle, hb::RToe}; }
   double total_mass() const {
     double m = 0;
     for (const auto& b : bodies) m += b.mass();

@@ -1,16 +1,37 @@
 #pragma once
 /// \file geometry.hpp
-/// The humanoid's collision shapes seen from the motion code: every geom approximated by a
+/// A character's collision shapes seen from the motion code: every geom approximated by a
 /// capsule (segment + radius) in world coordinates for a pose, the lowest point of a body, and
 /// segment–segment distances. Used for grounding, foot contacts and self-collision checks.
+///
+/// The character is any description satisfying `CharacterGeometry` — a `skeleton`, per-body
+/// `bodies[i].geoms` (motion/geom.hpp) and `foot_bodies()` — such as the reference humanoid's
+/// `HumanoidDescription` (humanoid/description.hpp). The motion layer includes no character.
 #include <maskadapt/core/types.hpp>
-#include <maskadapt/humanoid/description.hpp>
+#include <maskadapt/motion/geom.hpp>
 #include <maskadapt/motion/skeleton.hpp>
 
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <concepts>
+#include <ranges>
 #include <vector>
+
+namespace maskadapt {
+
+/// What the motion code needs of a character's shape: its skeleton, the geoms of every body
+/// (in the body's frame) and the bodies that carry the feet.
+template <class D>
+concept CharacterGeometry = requires(const D& d, std::size_t i) {
+  { d.skeleton } -> std::convertible_to<const Skeleton&>;
+  { d.bodies.size() } -> std::convertible_to<std::size_t>;
+  { d.bodies[i].geoms } -> std::ranges::range;
+  requires std::same_as<std::ranges::range_value_t<decltype(d.bodies[i].geoms)>, Geom>;
+  { d.foot_bodies() } -> std::ranges::range;
+};
+
+}  // namespace maskadapt
 
 namespace maskadapt::geometry {
 
@@ -45,7 +66,8 @@ inline Capsule local_capsule(const Geom& g, int body) {
 }
 
 /// World capsules of every geom for given body states.
-inline void world_capsules(const HumanoidDescription& d, const BodyStates& bs, std::vector<Capsule>& out) {
+template <CharacterGeometry D>
+void world_capsules(const D& d, const BodyStates& bs, std::vector<Capsule>& out) {
   out.clear();
   for (int i = 0; i < static_cast<int>(d.bodies.size()); ++i)
     for (const Geom& g : d.bodies[i].geoms) {
@@ -57,7 +79,8 @@ inline void world_capsules(const HumanoidDescription& d, const BodyStates& bs, s
 }
 
 /// Lowest world z of body i's geoms (exact for boxes: the lowest of the 8 corners).
-inline double lowest_point(const HumanoidDescription& d, const BodyStates& bs, int i, Vec3* where = nullptr) {
+template <CharacterGeometry D>
+double lowest_point(const D& d, const BodyStates& bs, int i, Vec3* where = nullptr) {
   double zmin = 1e300;
   Vec3 best = bs.pos.col(i);
   const Quat& R = bs.rot[i];
@@ -82,15 +105,13 @@ inline double lowest_point(const HumanoidDescription& d, const BodyStates& bs, i
 }
 
 /// Lowest world z of the whole body.
-inline double lowest_point(const HumanoidDescription& d, const BodyStates& bs) {
+template <CharacterGeometry D>
+double lowest_point(const D& d, const BodyStates& bs) {
   double z = 1e300;
   for (int i = 0; i < bs.num_bodies(); ++i)
     if (!d.bodies[i].geoms.empty()) z = std::min(z, lowest_point(d, bs, i));
   return z;
 }
-
-/// The bodies that carry the feet: {L_Ankle, L_Toe, R_Ankle, R_Toe}.
-inline std::array<int, 4> foot_bodies() { return {hb::LAnkle, hb::LToe, hb::RAnkle, hb::RToe}; }
 
 /// Distance between segments [p1, q1] and [p2, q2] (closest points, clamped to both segments).
 inline double segment_distance(const Vec3& p1, const Vec3& q1, const Vec3& p2, const Vec3& q2) {

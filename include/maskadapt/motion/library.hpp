@@ -18,11 +18,10 @@
 #include <maskadapt/core/error.hpp>
 #include <maskadapt/core/rng.hpp>
 #include <maskadapt/core/thread_pool.hpp>
-#include <maskadapt/humanoid/description.hpp>
-#include <maskadapt/humanoid/observation.hpp>
 #include <maskadapt/mask/parts.hpp>
 #include <maskadapt/motion/amp_window.hpp>
 #include <maskadapt/motion/clip.hpp>
+#include <maskadapt/motion/observation.hpp>
 #include <maskadapt/motion/rotation.hpp>
 
 #include <algorithm>
@@ -147,7 +146,8 @@ struct ClipTime {
 
 class MotionLibrary {
  public:
-  explicit MotionLibrary(const Skeleton& skel = humanoid_skeleton()) : skel_(skel) {
+  /// A library of clips on `skel` (e.g. `humanoid_skeleton()`, humanoid/description.hpp).
+  explicit MotionLibrary(const Skeleton& skel) : skel_(skel) {
     skel_.validate();
     skel_.require_xyz_layout("MotionLibrary (clips interpolate x-y-z joint rotations)");
   }
@@ -222,7 +222,7 @@ class MotionLibrary {
   /// Dimension of one AMP window: kAmpWindowFrames × observation_dim.
   Index amp_window_dim() const { return kAmpWindowFrames * observation_dim(skel_); }
 
-  /// The AMP sample ending at `t_end`: observations (humanoid/observation.hpp) of the frames at
+  /// The AMP sample ending at `t_end`: observations (motion/observation.hpp) of the frames at
   /// t_end − 4Δ, …, t_end (Δ = 1/30 s), oldest first, stacked into `out` (amp_window_dim()).
   ///
   /// On a clip recorded at 1/Δ = 30 fps, the central differences of neighbouring window frames share

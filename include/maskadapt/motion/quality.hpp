@@ -1,7 +1,8 @@
 #pragma once
 /// \file quality.hpp
-/// Plausibility report of a humanoid clip: foot skating, ground penetration, joint-limit
-/// violations and kinematic self-collision.
+/// Plausibility report of a clip on a character (any `CharacterGeometry`, e.g. the reference
+/// humanoid's description): foot skating, ground penetration, joint-limit violations and
+/// kinematic self-collision.
 ///
 /// Definitions (all from kinematics; the clip's frames are the samples):
 ///  - a foot body (ankle or toe) is *in contact* in a frame when its lowest point is below
@@ -15,7 +16,6 @@
 ///  - *self-collision*: every geom as a capsule (geometry.hpp); a frame self-collides when two
 ///    capsules of bodies that are not within two joints of each other in the tree, and that do
 ///    not already overlap in the zero pose, interpenetrate by more than `collision_depth` (1 cm).
-#include <maskadapt/humanoid/description.hpp>
 #include <maskadapt/motion/clip.hpp>
 #include <maskadapt/motion/geometry.hpp>
 
@@ -62,7 +62,8 @@ struct QualityReport {
 
 namespace detail {
 /// Pairs of capsules to test for self-collision (see file comment).
-inline std::vector<std::pair<int, int>> collision_pairs(const HumanoidDescription& d) {
+template <CharacterGeometry D>
+std::vector<std::pair<int, int>> collision_pairs(const D& d) {
   const Skeleton& s = d.skeleton;
   const int nb = s.num_bodies();
   auto depth = [&](int b) {
@@ -91,9 +92,9 @@ inline std::vector<std::pair<int, int>> collision_pairs(const HumanoidDescriptio
 }
 }  // namespace detail
 
-/// Computes the report of a clip in the humanoid's skeleton.
-inline QualityReport motion_quality(const MotionClip& clip, const HumanoidDescription& d = humanoid_description(),
-                                    const QualityOptions& opt = {}) {
+/// Computes the report of a clip on character `d` (the clip in d's skeleton).
+template <CharacterGeometry D>
+QualityReport motion_quality(const MotionClip& clip, const D& d, const QualityOptions& opt = {}) {
   const Skeleton& s = d.skeleton;
   clip.validate(s);
   QualityReport r;
@@ -101,7 +102,8 @@ inline QualityReport motion_quality(const MotionClip& clip, const HumanoidDescri
   r.frames = T;
   r.duration = clip.duration();
   const auto pairs = detail::collision_pairs(d);
-  const auto feet = geometry::foot_bodies();
+  const auto feet_range = d.foot_bodies();
+  const std::vector<int> feet(std::ranges::begin(feet_range), std::ranges::end(feet_range));
   BodyStates bs;
   std::vector<geometry::Capsule> caps;
   std::vector<Vec3> prev_pos(feet.size());

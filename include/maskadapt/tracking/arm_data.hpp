@@ -21,8 +21,8 @@
 #include <maskadapt/core/rng.hpp>
 #include <maskadapt/mask/parts.hpp>
 #include <maskadapt/motion/blend.hpp>
-#include <maskadapt/motion/retarget.hpp>
-#include <maskadapt/motion/synthetic.hpp>
+#include <maskadapt/humanoid/retarget.hpp>
+#include <maskadapt/humanoid/synthetic.hpp>
 #include <maskadapt/tracking/text_pool.hpp>
 
 #include <algorithm>

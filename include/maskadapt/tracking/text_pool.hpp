@@ -12,7 +12,7 @@
 #include <maskadapt/core/error.hpp>
 #include <maskadapt/core/rng.hpp>
 #include <maskadapt/motion/clip.hpp>
-#include <maskadapt/motion/retarget.hpp>
+#include <maskadapt/humanoid/retarget.hpp>
 #include <maskadapt/tracking/primitive_dataset.hpp>
 #include <maskadapt/tracking/text_encoder.hpp>
 

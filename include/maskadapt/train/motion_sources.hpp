@@ -6,7 +6,7 @@
 /// window sampler from it.
 #include <maskadapt/core/error.hpp>
 #include <maskadapt/motion/library.hpp>
-#include <maskadapt/motion/synthetic.hpp>
+#include <maskadapt/humanoid/synthetic.hpp>
 #include <maskadapt/tasks/imitation.hpp>
 #include <maskadapt/train/base_trainer.hpp>
 
@@ -26,7 +26,7 @@ namespace maskadapt::train {
 /// when nothing can be loaded.
 inline std::shared_ptr<MotionLibrary> load_motion_library(const std::vector<std::string>& sources,
                                                           const std::string& data_dir = motion_data_dir()) {
-  auto lib = std::make_shared<MotionLibrary>();
+  auto lib = std::make_shared<MotionLibrary>(humanoid_skeleton());
   for (const auto& src : sources) {
     namespace fs = std::filesystem;
     if (fs::is_directory(src)) {

@@ -4,7 +4,7 @@
 /// scheduled part mask, and the rollout recorded three ways —
 ///  - a viewer rollout (eval/rollout_file.hpp): body poses, the active mask and contacts per frame;
 ///  - a humanoid MotionClip (joint angles recovered from the simulated body orientations), which
-///    motion/retarget.hpp's clip_to_bvh turns into a BVH file;
+///    humanoid/retarget.hpp's clip_to_bvh turns into a BVH file;
 ///  - the root's ground trajectory (t, x, y) for plots.
 ///
 /// The initial state comes from the reset sampler (RSI from the motion library in the CLI), drawn

@@ -13,7 +13,7 @@
 #include <maskadapt/humanoid/description.hpp>
 #include <maskadapt/motion/clip.hpp>
 #include <maskadapt/motion/geometry.hpp>
-#include <maskadapt/motion/retarget.hpp>
+#include <maskadapt/humanoid/retarget.hpp>
 #include <maskadapt/motion/rotation.hpp>
 
 #include <cmath>
@@ -99,7 +99,7 @@ inline void ground(MotionClip& c) {
   double zmin = 1e300;
   for (int t = 0; t < c.num_frames(); ++t) {
     forward_kinematics(d.skeleton, c.frame(t), bs);
-    for (int f : geometry::foot_bodies()) zmin = std::min(zmin, geometry::lowest_point(d, bs, f));
+    for (int f : d.foot_bodies()) zmin = std::min(zmin, geometry::lowest_point(d, bs, f));
   }
   c.root_pos.row(2).array() -= zmin;
 }

@@ -378,7 +378,7 @@ inline MotionClip finish(const HumanoidSequence& seq, const HumanoidDescription&
     std::vector<double> low(static_cast<std::size_t>(Tout), 1e300);
     for (int k = 0; k < Tout; ++k) {
       forward_kinematics(skel, clip.frame(k), bs);
-      for (int f : geometry::foot_bodies())
+      for (int f : desc.foot_bodies())
         low[static_cast<std::size_t>(k)] = std::min(low[static_cast<std::size_t>(k)], geometry::lowest_point(desc, bs, f));
     }
     const auto nth = static_cast<std::size_t>(std::clamp(opt.ground_quantile, 0.0, 1.0) * (Tout - 1));
