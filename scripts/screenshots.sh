@@ -109,56 +109,48 @@ else
   skipped=$((skipped + 1))
 fi
 
+cli="${MASKADAPT_CLI:-$repo/build/bin/maskadapt}"
+# rollout_of NAME COMMAND ARGS... — runs `maskadapt COMMAND ARGS... --rollout <tmp>/NAME.json` in the
+# repository and sets $rollout to that file; when it fails, counts the failure for $picture.
+rollout_of() {
+  local name="$1"
+  shift
+  rollout="$(mktemp -d)/$name.json"
+  if (cd "$repo" && "$cli" "$@" --rollout "$rollout" >/dev/null); then
+    command_of "$rollout"
+    return 0
+  fi
+  echo "screenshots: $picture: maskadapt $1 failed" >&2
+  failed=$((failed + 1))
+  return 1
+}
+
 # (e) the shipped mask-invariant base with both legs masked (README's first screen): 10 s of
 # `play --deterministic` from seed 1.
 picture=shipped_walker.png
-model="$repo/models/mask_mi_walk_bandai.bin"
-cli="${MASKADAPT_CLI:-$repo/build/bin/maskadapt}"
-if have "$model" "$cli"; then
-  rollout="$(mktemp -d)/shipped_walker.json"
-  if (cd "$repo" && "$cli" play models/mask_mi_walk_bandai.bin --mask left_leg,right_leg --deterministic --seconds 10 \
-        --seed 1 --rollout "$rollout" >/dev/null); then
-    command_of "$rollout"
-    take "$picture" --rollout "$rollout" --label "models/mask_mi_walk_bandai.bin, both legs masked, play --deterministic --seed 1" \
-      --time "${SHIPPED_T:-2}"
-  else
-    echo "screenshots: $picture: maskadapt play failed" >&2
-    failed=$((failed + 1))
-  fi
+if have "$repo/models/mask_mi_walk_bandai.bin" "$cli" &&
+   rollout_of shipped_walker play models/mask_mi_walk_bandai.bin --mask left_leg,right_leg --deterministic --seconds 10 --seed 1; then
+  take "$picture" --rollout "$rollout" --label "models/mask_mi_walk_bandai.bin, both legs masked, play --deterministic --seed 1" \
+    --time "${SHIPPED_T:-2}"
 fi
 
 # (f) the shipped Table 2 case (c) policy with its mask switched mid-episode (the paper's Fig. 5c):
 # no part masked for 3 s (the base walks), then the lower body (the legs sneak).
 picture="fig5c_viewer_before.png, fig5c_viewer_after.png"
-model="$repo/models/table2/sneak_ours_s1.bin"
-if have "$model" "$cli"; then
-  rollout="$(mktemp -d)/fig5c.json"
-  if (cd "$repo" && "$cli" play-residual models/table2/sneak_ours_s1.bin --mask-schedule "0:none,3:lower_body" --seconds 6 \
-        --seed 1 --rollout "$rollout" >/dev/null); then
-    command_of "$rollout"
-    take fig5c_viewer_before.png --rollout "$rollout" --label "models/table2/sneak_ours_s1.bin: no mask (the base walks)" --time 2
-    take fig5c_viewer_after.png --rollout "$rollout" --label "models/table2/sneak_ours_s1.bin: lower body masked (sneak)" --time 4.5
-  else
-    echo "screenshots: $picture: maskadapt play-residual failed" >&2
-    failed=$((failed + 1))
-  fi
+if have "$repo/models/table2/sneak_ours_s1.bin" "$cli" &&
+   rollout_of fig5c play-residual models/table2/sneak_ours_s1.bin --mask-schedule "0:none,3:lower_body" --seconds 6 --seed 1; then
+  take fig5c_viewer_before.png --rollout "$rollout" --label "models/table2/sneak_ours_s1.bin: no mask (the base walks)" --time 2
+  take fig5c_viewer_after.png --rollout "$rollout" --label "models/table2/sneak_ours_s1.bin: lower body masked (sneak)" --time 4.5
 fi
 
 # (g) the shipped text generator (issue 19) switching from "walk" to "wave right hand" at 2 s, from a
 # real Bandai walk (needs the shared data): kinematic frames, not a simulation.
 picture="generator_switch_walk.png, generator_switch_wave.png"
 walk="${MASKADAPT_DATA_DIR:-$repo/../shared/data}/motions/bandai/locomotion/dataset-1_walk_normal_001.bvh"
-if have "$repo/models/text_generator.bin" "$cli" "$walk"; then
-  rollout="$(mktemp -d)/generator_switch.json"
-  if (cd "$repo" && "$cli" generate --text "0:walk,2:wave right hand" --seconds 5 --seed 1 --from "$walk:2" \
-        --rollout "$rollout" >/dev/null); then
-    command_of "$rollout"
-    take generator_switch_walk.png --rollout "$rollout" --label "models/text_generator.bin: 'walk' (1.5 s)" --time 1.5
-    take generator_switch_wave.png --rollout "$rollout" --label "models/text_generator.bin: 'wave right hand' from 2 s (3.5 s)" --time 3.5
-  else
-    echo "screenshots: $picture: maskadapt generate failed" >&2
-    failed=$((failed + 1))
-  fi
+if have "$repo/models/text_generator.bin" "$cli" "$walk" &&
+   rollout_of generator_switch generate --text "0:walk,2:wave right hand" --seconds 5 --seed 1 --from "$walk:2"; then
+  take generator_switch_walk.png --rollout "$rollout" --label "models/text_generator.bin: 'walk' (1.5 s)" --time 1.5
+  take generator_switch_wave.png --rollout "$rollout" --label "models/text_generator.bin: 'wave right hand' from 2 s (3.5 s)" --time 3.5
 fi
 
 echo "screenshots: $made written to $OUT, $skipped skipped, $failed failed"

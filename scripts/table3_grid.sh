@@ -19,6 +19,7 @@
 # a residual on the arms alone cannot walk to a target or a box (measured: location 4 %).
 set -euo pipefail
 cd "$(dirname "$0")/.."
+source scripts/grid_lib.sh
 
 BIN=${BIN:-build/bin/maskadapt}
 BASE=${BASE:-models/mask_mi_walk_bandai.bin}
@@ -61,13 +62,9 @@ for cell in $CELLS; do
     continue
   fi
   echo "== $cell: $(date -u +%H:%M:%S) training to $ITERATIONS iterations in $dir"
-  if [[ -f "$dir/checkpoint.bin" ]]; then
-    "$BIN" train-residual --resume "$dir/checkpoint.bin" --iterations "$ITERATIONS" --out "$dir"
-  else
-    # shellcheck disable=SC2046
-    "$BIN" train-residual --task "$task" --method "$method" --base "$BASE" \
-      --new-motion $(motion_for "$task") --masks "$(mask_for "$task")" $(goal_parts_for "$task") \
-      --threads "$THREADS" --iterations "$ITERATIONS" --seed "$SEED" --out "$dir"
-  fi
+  # shellcheck disable=SC2046
+  train_or_resume "$dir" "$ITERATIONS" --task "$task" --method "$method" --base "$BASE" \
+    --new-motion $(motion_for "$task") --masks "$(mask_for "$task")" $(goal_parts_for "$task") \
+    --threads "$THREADS" --seed "$SEED"
   "$BIN" eval-residual "$dir/checkpoint.bin" --task "$task" --envs "$EVAL_ENVS" --trials "$TRIALS" --out "$result"
 done

@@ -12,6 +12,7 @@
 # (--resume, bit-exact) up to ITERATIONS; a cell with an eval_it<ITERATIONS>.json is done.
 set -euo pipefail
 cd "$(dirname "$0")/.."
+source scripts/grid_lib.sh
 
 BIN=${BIN:-build/bin/maskadapt}
 BASE=${BASE:-models/mask_mi_walk_bandai.bin}
@@ -31,14 +32,8 @@ for method in $CELLS; do
     continue
   fi
   echo "== $method: $(date -u +%H:%M:%S) training to $ITERATIONS iterations in $dir"
-  if [[ -f "$dir/checkpoint.bin" ]]; then
-    "$BIN" train-residual --resume "$dir/checkpoint.bin" --iterations "$ITERATIONS" --out "$dir"
-  elif [[ "$method" == scratch ]]; then
-    "$BIN" train-residual --task tracking --method scratch --motions "$MOTIONS" --generator "$GENERATOR" \
-      --designated arms --threads "$THREADS" --iterations "$ITERATIONS" --seed "$SEED" --out "$dir"
-  else
-    "$BIN" train-residual --task tracking --method "$method" --base "$BASE" --generator "$GENERATOR" \
-      --designated arms --threads "$THREADS" --iterations "$ITERATIONS" --seed "$SEED" --out "$dir"
-  fi
+  if [[ "$method" == scratch ]]; then base=(--motions "$MOTIONS"); else base=(--base "$BASE"); fi
+  train_or_resume "$dir" "$ITERATIONS" --task tracking --method "$method" "${base[@]}" --generator "$GENERATOR" \
+    --designated arms --threads "$THREADS" --seed "$SEED"
   "$BIN" eval-residual "$dir/checkpoint.bin" --task tracking --num-prompts 10 --seconds 5 --repeats 3 --out "$result"
 done
