@@ -178,3 +178,33 @@ TEST(ShippedModels, Table3PoliciesAreTheCellsTheyClaimToBeOnTheShippedBase) {
       EXPECT_TRUE(mu.allFinite()) << path;
     }
 }
+
+// The Table 4 policies (issue 15, models/table4/): partial tracking with the arms designated and the
+// shipped text generator — ours and the CML-style baseline on the shipped walking base (seeds 1 and
+// 2), from scratch without a base (seed 1) — each the stage-2 export of the cell it is named after.
+TEST(ShippedModels, Table4TrackingPoliciesAreTheCellsTheyClaimToBe) {
+  const Skeleton& skel = humanoid_skeleton();
+  const std::vector<std::pair<std::string, int>> cells = {{"ours", 1}, {"ours", 2}, {"cml", 1}, {"cml", 2}, {"scratch", 1}};
+  for (const auto& [method, seed] : cells) {
+    const std::string path = std::string(MASKADAPT_SOURCE_DIR "/models/table4/tracking_") + method + "_s" +
+                             std::to_string(seed) + ".bin";
+    const Checkpoint c = load_checkpoint(path);
+    ASSERT_TRUE(is_residual_export(c)) << path;
+    const ResidualTrainConfig cfg = check_residual_export(c, path);
+    EXPECT_EQ(cfg.task, "tracking") << path;
+    EXPECT_EQ(cfg.method, method) << path;
+    EXPECT_EQ(cfg.designated, "arms") << path;
+    EXPECT_EQ(cfg.generator, "models/text_generator.bin") << path;
+    EXPECT_EQ(cfg.rl.run.seed, static_cast<std::uint64_t>(seed)) << path;
+    EXPECT_EQ(c.get_int("trainer/iteration"), 1500) << path;
+    if (method != "scratch")
+      EXPECT_TRUE(same_base(c, MASKADAPT_SOURCE_DIR "/models/mask_mi_walk_bandai.bin"))
+          << path << ": the frozen base is not models/mask_mi_walk_bandai.bin's actor";
+    const auto pol = stage2_policy_from_checkpoint<adapt::ResidualPolicy<float>>(c, skel);
+    MatrixXf x = MatrixXf::Zero(pol.input_dim(), 1), mu;
+    adapt::ResidualWorkspace<float> ws;
+    pol.mean(x, std::vector<PartMask>{method == "scratch" ? PartMask::all() : PartMask::parse("arms")}, mu, ws);
+    EXPECT_EQ(mu.rows(), 63) << path;
+    EXPECT_TRUE(mu.allFinite()) << path;
+  }
+}
