@@ -197,9 +197,10 @@ TEST(ShippedModels, Table4TrackingPoliciesAreTheCellsTheyClaimToBe) {
     EXPECT_EQ(cfg.generator, "models/text_generator.bin") << path;
     EXPECT_EQ(cfg.rl.run.seed, static_cast<std::uint64_t>(seed)) << path;
     EXPECT_EQ(c.get_int("trainer/iteration"), 1500) << path;
-    if (method != "scratch")
+    if (method != "scratch") {
       EXPECT_TRUE(same_base(c, MASKADAPT_SOURCE_DIR "/models/mask_mi_walk_bandai.bin"))
           << path << ": the frozen base is not models/mask_mi_walk_bandai.bin's actor";
+    }
     const auto pol = stage2_policy_from_checkpoint<adapt::ResidualPolicy<float>>(c, skel);
     MatrixXf x = MatrixXf::Zero(pol.input_dim(), 1), mu;
     adapt::ResidualWorkspace<float> ws;
