@@ -90,8 +90,11 @@ TEST(MujocoScene, ContactWithTheRightHandIsReportedForThatBody) {
   const ContactFlags& c = sim.object_contacts(0, 0);
   ASSERT_EQ(c.size(), static_cast<std::size_t>(sim.skeleton().num_bodies()));
   EXPECT_EQ(c[hb::RWrist], 1);
-  for (int b = 0; b < sim.skeleton().num_bodies(); ++b)
-    if (b != hb::RWrist && b != hb::RElbow) EXPECT_EQ(c[static_cast<std::size_t>(b)], 0) << sim.skeleton().names[static_cast<std::size_t>(b)];
+  for (int b = 0; b < sim.skeleton().num_bodies(); ++b) {
+    if (b != hb::RWrist && b != hb::RElbow) {
+      EXPECT_EQ(c[static_cast<std::size_t>(b)], 0) << sim.skeleton().names[static_cast<std::size_t>(b)];
+    }
+  }
   EXPECT_EQ(sim.contacts(0)[hb::RWrist], 0);  // a box is not the ground
 }
 
