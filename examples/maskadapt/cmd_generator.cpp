@@ -229,27 +229,27 @@ void run_generate(const GenerateOptions& o) {
   const Trajectory t = rollout(g, schedule, hist, n, rng);
   std::cout << "generated " << t.num_frames() << " frames (" << o.seconds << " s at 30 Hz) for '" << o.text << "' from "
             << o.from << " with " << path << "\n";
-  MotionClip c;
-  c.name = "generated";
-  c.labels = {o.text};
-  c.fps = 30.0;
-  c.resize(static_cast<int>(t.num_frames()), skel.num_dofs());
-  c.root_pos = t.root_pos;
-  for (Index i = 0; i < t.num_frames(); ++i) c.set_rot(static_cast<int>(i), t.root_rot[static_cast<std::size_t>(i)]);
-  c.q = t.q;
   if (!o.bvh.empty()) {
+    MotionClip c;
+    c.name = "generated";
+    c.labels = {o.text};
+    c.fps = 30.0;
+    c.resize(static_cast<int>(t.num_frames()), skel.num_dofs());
+    c.root_pos = t.root_pos;
+    for (Index i = 0; i < t.num_frames(); ++i) c.set_rot(static_cast<int>(i), t.root_rot[static_cast<std::size_t>(i)]);
+    c.q = t.q;
     bvh::write(o.bvh, clip_to_bvh(c, skel));
     std::cout << "wrote " << o.bvh << "\n";
   }
   if (!o.rollout.empty()) {  // the viewer's format: kinematic frames, the prompts as its text track
-    eval::Rollout r = eval::make_rollout(humanoid_description(), c.fps);
+    eval::Rollout r = eval::make_rollout(humanoid_description(), t.fps);
     r.metadata.command = cli::invocation();
     r.metadata.checkpoint = path;
     r.metadata.seed = static_cast<std::int64_t>(o.seed);
     r.metadata.extra["from"] = o.from;
     r.metadata.extra["kind"] = "generated (kinematic, not simulated)";
     for (const auto& tt : schedule) r.texts.push_back({tt.start_s, tt.text});
-    for (int i = 0; i < c.num_frames(); ++i) eval::add_frame(r, forward_kinematics(skel, c.frame(i)), PartMask::none());
+    for (Index i = 0; i < t.num_frames(); ++i) eval::add_frame(r, forward_kinematics(skel, t.state(i)), PartMask::none());
     eval::write_rollout(r, o.rollout);
     std::cout << "wrote " << o.rollout << "\n";
   }

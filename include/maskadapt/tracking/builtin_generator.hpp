@@ -407,7 +407,7 @@ inline GeneratorTrainReport train_generator(BuiltinGenerator& g, const Primitive
     for (std::size_t n = 0; n < data.transition.size(); ++n)
       if (data.transition[n]) transitions.push_back(static_cast<Index>(n));
     const double oversample = transitions.empty() ? 0.0 : cfg.transition_fraction;
-    // The weights kept: the EMA θ̄ when on, else θ. `kept` swaps them into g for scoring.
+    // The weights kept: the EMA θ̄ when on, else θ. `with_kept_weights` swaps them into g for scoring.
     auto& proj = g.denoiser().projection().block();
     auto& net = g.denoiser().network().block();
     VectorXf ema_proj = proj.params(), ema_net = net.params();
@@ -441,9 +441,9 @@ inline GeneratorTrainReport train_generator(BuiltinGenerator& g, const Primitive
       });
       rep.select_seconds += std::chrono::duration<double>(clock::now() - s0).count();
     };
-    double paused = 0.0;  // seconds spent scoring, not charged to the stage's budget
     for (Index it = 0; it < cfg.diffusion_iterations; ++it) {
-      const double el = std::chrono::duration<double>(clock::now() - t0).count() - paused;
+      // (time spent scoring, rep.select_seconds, is not charged to the stage's budget)
+      const double el = std::chrono::duration<double>(clock::now() - t0).count() - rep.select_seconds;
       if (stage_budget > 0 && el > stage_budget) break;
       auto idx = sample_indices(data.size(), cfg.batch, rng);
       if (oversample > 0)
@@ -470,11 +470,8 @@ inline GeneratorTrainReport train_generator(BuiltinGenerator& g, const Primitive
         acc = 0.0;
         n_acc = 0;
       }
-      if (cfg.select_every > 0 && (it + 1) % cfg.select_every == 0 && it + 1 < cfg.diffusion_iterations) {
-        const double before = rep.select_seconds;
+      if (cfg.select_every > 0 && (it + 1) % cfg.select_every == 0 && it + 1 < cfg.diffusion_iterations)
         score_snapshot(it + 1);
-        paused += rep.select_seconds - before;
-      }
     }
     if (n_acc > 0) rep.diffusion_final = acc / n_acc;
     if (cfg.select_every > 0 && (rep.snapshots.empty() || rep.snapshots.back().iteration != rep.diffusion_iterations))
@@ -489,7 +486,7 @@ inline GeneratorTrainReport train_generator(BuiltinGenerator& g, const Primitive
         net.params() = ema_net;
       }
     }
-    rep.diffusion_seconds = std::chrono::duration<double>(clock::now() - t0).count() - paused;
+    rep.diffusion_seconds = std::chrono::duration<double>(clock::now() - t0).count() - rep.select_seconds;
   }
   return rep;
 }
