@@ -47,12 +47,13 @@ void run_eval_base(const EvalBaseArgs& a) {
   require(a.envs >= 1, "must be >= 1", {{}, {}, "--envs"});
   const Checkpoint ck = load_checkpoint(a.checkpoint);
   ThreadPool pool(static_cast<std::size_t>(a.threads));
-  MujocoHumanoidSim sim(static_cast<std::size_t>(a.envs), pool);
+  const MujocoCharacter& character = mujoco_character(checkpoint_character(ck, a.checkpoint), a.checkpoint + " (env.character)");
+  MujocoHumanoidSim sim(static_cast<std::size_t>(a.envs), pool, character);
   const Index d = observation_dim(sim.skeleton());
   const LoadedBasePolicy loaded =
       load_base_policy(ck, {d, d + kNumParts, sim.skeleton().num_dofs(), d * kAmpWindowFrames}, a.checkpoint);
   const auto motions = a.motions.empty() ? loaded.config.env.motions : a.motions;
-  auto lib = load_motion_library(motions, motion_data_dir(MASKADAPT_SOURCE_DIR "/../shared/data"));
+  auto lib = load_motion_library(motions, motion_data_dir(MASKADAPT_SOURCE_DIR "/../shared/data"), character.name);
   const MatrixXf reference = reference_visitation_features(*lib);
 
   EvalBaseOptions opt;
@@ -62,20 +63,22 @@ void run_eval_base(const EvalBaseArgs& a) {
   opt.episode_seconds = a.episode_seconds;
   opt.deterministic = a.deterministic;
   opt.seed = static_cast<std::uint64_t>(a.seed);
-  std::cout << "eval-base: " << a.checkpoint << " (iteration " << loaded.iteration
+  std::cout << "eval-base: " << a.checkpoint << " (" << character.name << ", iteration " << loaded.iteration
             << (loaded.policy_only ? ", model (policy only)" : "") << ", masking "
             << (loaded.config.mask.enabled ? "on" : "off") << ", lambda_MI " << loaded.config.mask.lambda_mi << "); "
             << reference.cols() << " reference frames from " << lib->num_clips() << " clip(s); 16 masks x 2 starts x "
             << a.envs << " envs x " << a.frames << " frames; threshold " << a.threshold << " m, counting " << a.counting << "\n";
   Stopwatch clock;
-  BaseEvaluation ev = evaluate_base_policy(sim, loaded.policy, library_reset_sampler(lib), reference, opt, std::nullopt,
-                                                 loaded.config.env.termination_height, &pool, &std::cout);
+  BaseEvaluation ev = evaluate_base_policy(sim, loaded.policy, library_reset_sampler(lib), reference, opt,
+                                           character.fall_criteria(loaded.config.env.termination_height),
+                                           loaded.config.env.termination_height, &pool, &std::cout);
   ev.reference_speed = reference_mean_speed(*lib);
   std::cout << "\n" << format_hnorm_table(ev, false) << "\n" << format_hnorm_table(ev, true) << "\n"
             << format_episode_table(ev) << "eval-base: " << clock.seconds() << " s\n";
   if (!a.json.empty()) {
     nlohmann::json j = to_json(ev);
     j["checkpoint"] = a.checkpoint;
+    j["character"] = character.name;
     j["iteration"] = loaded.iteration;
     j["envs"] = a.envs;
     j["motions"] = motions;

@@ -10,6 +10,7 @@
 #include <maskadapt/core/checkpoint.hpp>
 #include <maskadapt/core/error.hpp>
 #include <maskadapt/humanoid/description.hpp>
+#include <maskadapt/sim/mujoco/character.hpp>
 #include <maskadapt/train/policy_export.hpp>
 #include <maskadapt/train/residual_export.hpp>
 #include <maskadapt/train/stage2_policy.hpp>
@@ -82,7 +83,7 @@ void run_export(const ExportArgs& a) {
   // humanoid, before anything is written (every section's size is checked)
   auto stage2_inputs = [](const Checkpoint& m) {
     const ResidualTrainConfig c = check_residual_export(m);
-    const Skeleton& skel = humanoid_skeleton();
+    const Skeleton& skel = mujoco_character(c.rl.env.character, "env.character").skeleton;
     return c.method == "adaptnet" ? stage2_policy_from_checkpoint<adapt::AdaptNetPolicy<float>>(m, skel).input_dim()
                                   : stage2_policy_from_checkpoint<adapt::ResidualPolicy<float>>(m, skel).input_dim();
   };
@@ -105,7 +106,8 @@ void run_export(const ExportArgs& a) {
   if (stage2) {
     const Index inputs = stage2_inputs(written);
     std::cout << ", task " << written.get_string("model/task") << ", method " << written.get_string("model/method")
-              << ", policy input " << inputs << ", actions " << humanoid_skeleton().num_dofs() << "\n";
+              << ", policy input " << inputs << ", actions "
+              << mujoco_character(check_residual_export(written).rl.env.character).skeleton.num_dofs() << "\n";
   } else {
     const ModelDims d = check_policy_export(written);
     std::cout << ", obs " << d.obs_dim << ", policy input " << d.policy_input_dim << ", actions " << d.action_dim << "\n";

@@ -42,12 +42,13 @@ void run_play(const PlayArgs& a) {
   require(!a.bvh.empty() || !a.csv.empty() || !a.rollout.empty(), "nothing to write: give --bvh, --csv and/or --rollout",
           {{}, {}, "--bvh"});
   const Checkpoint ck = load_checkpoint(a.checkpoint);
-  MujocoHumanoidSim sim(1);
+  const MujocoCharacter& character = mujoco_character(checkpoint_character(ck, a.checkpoint), a.checkpoint + " (env.character)");
+  MujocoHumanoidSim sim(1, 1, character);
   const PolicyDims dims{observation_dim(sim.skeleton()), observation_dim(sim.skeleton()) + kNumParts,
                         sim.skeleton().num_dofs(), observation_dim(sim.skeleton()) * kAmpWindowFrames};
   const LoadedBasePolicy loaded = load_base_policy(ck, dims, a.checkpoint);
   const auto motions = a.motions.empty() ? loaded.config.env.motions : a.motions;
-  auto lib = load_motion_library(motions, motion_data_dir(MASKADAPT_SOURCE_DIR "/../shared/data"));
+  auto lib = load_motion_library(motions, motion_data_dir(MASKADAPT_SOURCE_DIR "/../shared/data"), character.name);
 
   PlayOptions opt;
   opt.seconds = a.seconds;
@@ -61,7 +62,7 @@ void run_play(const PlayArgs& a) {
             << "), mask " << mask_text << ", "
             << a.seconds << " s, " << (a.deterministic ? "mean actions" : "sampled actions") << ", seed " << a.seed << "\n";
 
-  eval::Rollout tmpl = eval::make_rollout(sim.description());
+  eval::Rollout tmpl = eval::make_rollout(sim.character());
   std::string cmd;
   for (const auto& s : a.argv) cmd += (cmd.empty() ? "" : " ") + s;
   tmpl.metadata.command = cmd;
@@ -71,7 +72,9 @@ void run_play(const PlayArgs& a) {
   tmpl.metadata.extra["lambda_mi"] = std::to_string(loaded.config.mask.lambda_mi);
   tmpl.metadata.extra["masking"] = loaded.config.mask.enabled ? "true" : "false";
   tmpl.metadata.extra["iteration"] = std::to_string(loaded.iteration);
-  const PlayResult r = play_base_policy(sim, loaded.policy, library_reset_sampler(lib), opt, std::move(tmpl), std::nullopt,
+  tmpl.metadata.extra["character"] = character.name;
+  const PlayResult r = play_base_policy(sim, loaded.policy, library_reset_sampler(lib), opt, std::move(tmpl),
+                                        character.fall_criteria(loaded.config.env.termination_height),
                                         loaded.config.env.termination_height);
 
   const Vec3 d = r.root.col(r.root.cols() - 1) - r.root.col(0);

@@ -23,7 +23,7 @@
 namespace {
 
 struct TrainBaseArgs {
-  std::string config, preset, out, resume;
+  std::string config, preset, out, resume, character;
   std::vector<std::string> motions;
   int envs = -1, threads = -1;
   long long iterations = -1, checkpoint_every = -1;
@@ -38,7 +38,7 @@ struct TrainBaseArgs {
 const std::vector<std::pair<std::string, std::string>> kFieldFlags = {
     {"env.num_envs", "--envs"},         {"run.threads", "--threads"},     {"run.iterations", "--iterations"},
     {"run.minutes", "--minutes"},       {"run.checkpoint_every", "--checkpoint-every"},
-    {"run.out_dir", "--out"},           {"env.motions", "--motions"},     {"mask.lambda_mi", "--lambda-mi"},
+    {"run.out_dir", "--out"},           {"env.motions", "--motions"},     {"env.character", "--character"},     {"mask.lambda_mi", "--lambda-mi"},
     {"mask.prob", "--mask-prob"},       {"mask.max_parts", "--max-parts"},
     {"mask.warmup_samples", "--mask-warmup-samples"}, {"mask.mi_gradient", "--mi-gradient"}, {"mask.mi_target_tau", "--mi-target-tau"}, {"mask.hidden_value", "--hidden-value"}, {"mask.ramp_samples", "--mask-ramp-samples"},
     {"net.action_offset", "--action-offset"}, {"net.action_scale", "--action-scale"},
@@ -67,6 +67,7 @@ void run_train_base(const TrainBaseArgs& a) {
   }
   const std::uint64_t checkpoint_seed = cfg.run.seed;
   if (!a.config.empty()) cfg = load_config(a.config);
+  if (!a.character.empty()) cfg.env.character = a.character;
   if (!a.motions.empty()) cfg.env.motions = a.motions;
   if (a.envs >= 1) cfg.env.num_envs = a.envs;
   if (a.threads >= 0) cfg.run.threads = a.threads;
@@ -92,23 +93,25 @@ void run_train_base(const TrainBaseArgs& a) {
 #ifndef MASKADAPT_HAS_MUJOCO
   throw Error("this build has no MuJoCo; train-base needs the maskadapt::mujoco target", {{}, std::nullopt, "train-base"});
 #else
-  auto lib = load_motion_library(cfg.env.motions, motion_data_dir(MASKADAPT_SOURCE_DIR "/../shared/data"));
+  const MujocoCharacter& character = mujoco_character(cfg.env.character, "env.character");
+  auto lib = load_motion_library(cfg.env.motions, motion_data_dir(MASKADAPT_SOURCE_DIR "/../shared/data"), character.name);
   if (world.distributed())
     require(cfg.env.num_envs % world.size() == 0,
             std::to_string(cfg.env.num_envs) + " envs do not split evenly over " + std::to_string(world.size()) +
                 " ranks (each rank steps env.num_envs / ranks of them); choose --envs as a multiple of the rank count",
             {{}, std::nullopt, "--envs"});
   const auto envs_here = static_cast<std::size_t>(cfg.env.num_envs / world.size());
-  out << "train-base: " << lib->num_clips() << " clip(s), " << lib->total_duration() << " s of motion; "
+  out << "train-base: " << character.name << " (" << character.skeleton.num_dofs() << " DoF), " << lib->num_clips()
+      << " clip(s), " << lib->total_duration() << " s of motion; "
             << cfg.env.num_envs << " envs, preset " << cfg.preset << ", masking " << (cfg.mask.enabled ? "on" : "off")
             << ", lambda_MI " << cfg.mask.lambda_mi << ", out " << cfg.run.out_dir << ", BLAS kernel " << blas_core_name()
             << (world.distributed() ? ", " + std::to_string(world.size()) + " ranks x " + std::to_string(envs_here) + " envs" : std::string())
             << "\n";
   ThreadPool pool(static_cast<std::size_t>(cfg.run.threads));
-  MujocoHumanoidSim sim(envs_here, pool);
+  MujocoHumanoidSim sim(envs_here, pool, character);
   resolve_action_space(cfg, sim.skeleton(), lib.get());  // a resumed run's config holds them already
   BaseTrainer<MujocoHumanoidSim> trainer(sim, library_reset_sampler(lib), library_window_sampler(lib, &pool), cfg, &pool,
-                                         std::nullopt, &world);
+                                         character.fall_criteria(cfg.env.termination_height), &world);
   if (resume) {
     trainer.load(*resume);
     out << "train-base: resumed at iteration " << trainer.iteration() << " from " << a.resume << "\n";
@@ -138,6 +141,9 @@ const bool registered = maskadapt::cli::register_command([](CLI::App& app) {
   // the config file (or the resumed checkpoint's config) names its own preset
   CLI::Option* preset = c->add_option("--preset", args->preset, "cpu | paper")->check(one_of({"cpu", "paper"}))->excludes(config);
   c->add_option("--motions", args->motions, "motion sources: locomotion | synthetic | DIR | FILE ...");
+  CLI::Option* character = c->add_option("--character", args->character,
+                                         "humanoid | g1: the simulated character (g1: the sources are retargeted onto the robot)")
+                               ->check(one_of({"humanoid", "g1"}));
   c->add_option("--envs", args->envs, "number of parallel envs")->transform(integer_in(1, maskadapt::train::kMaxEnvs));
   c->add_option("--threads", args->threads, "threads for simulation and network passes (0 = all cores)")
       ->transform(integer_in(0, maskadapt::train::kMaxThreads));
@@ -174,7 +180,8 @@ const bool registered = maskadapt::cli::register_command([](CLI::App& app) {
                            ->check(one_of({"one", "half_range"}));
   c->add_option("--actor-lr-schedule", args->actor_lr_schedule, "fixed | adaptive (the actor's rate follows PPO's KL, docs/training.md)")
       ->check(one_of({"fixed", "adaptive"}));
-  c->add_option("--resume", args->resume, "continue from a checkpoint")->excludes(preset)->excludes(offset)->excludes(scale);
+  c->add_option("--resume", args->resume, "continue from a checkpoint")
+      ->excludes(preset)->excludes(offset)->excludes(scale)->excludes(character);
   c->add_option("--checkpoint-every", args->checkpoint_every, "checkpoint period in iterations")->transform(positive_integer());
   c->callback([args] { run_train_base(*args); });
 });

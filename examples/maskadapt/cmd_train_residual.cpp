@@ -47,7 +47,7 @@ struct Args {
   std::string task = "composition", method = "ours", base, out = "runs/residual", preset, config, resume, generator,
               gain = "scalar";
   std::vector<std::string> new_motion, masks, motions, texts;
-  std::string designated = "arms", goal_parts;
+  std::string designated = "arms", goal_parts, character;
   // Numeric values were range-checked while parsing (cli_checks.hpp); −1 means "not given".
   int envs = -1, threads = -1, goal_trajectories = -1, sample_every = -1;
   long long iterations = -1, seed = -1;
@@ -120,7 +120,7 @@ tasks::AnyGoalTask<MujocoHumanoidSim> make_goal_task(const std::string& task, co
   tasks::StrikeConfig sc;
   sc.seed = seed;
   sc.box_half_height = sim.objects().front().half_size.z();
-  sc.strike_bodies = tasks::bodies_by_name(sim.skeleton(), {"L_Wrist", "R_Wrist"});
+  sc.strike_bodies = tasks::bodies_by_name(sim.skeleton(), sim.character().hands);
   return tasks::StrikeTask(sc, N);
 }
 #endif
@@ -250,6 +250,11 @@ void run_train_residual(const Args& a) {
       c.rl.net.action_offset_rad = bc.net.action_offset_rad;
       c.rl.net.action_scale_rad = bc.net.action_scale_rad;
       c.rl.env.motions = bc.env.motions;
+      require(a.character.empty() || a.character == bc.env.character,
+              "the base was trained on the " + bc.env.character + ", not the " + a.character, {{}, {}, "--character"});
+      c.rl.env.character = bc.env.character;
+    } else if (!a.character.empty()) {
+      c.rl.env.character = a.character;
     }
     if (!a.motions.empty()) c.rl.env.motions = a.motions;
     require_task_flags(c.task == "tracking" ? a.composition_only : a.tracking_only, c.task,
@@ -266,11 +271,16 @@ void run_train_residual(const Args& a) {
                               {"masks", "--masks"}, {"task", "--task"}, {"method", "--method"}});
   require(c.task != "composition" || !c.new_motions.empty(), "composition needs --new-motion", {{}, {}, "--new-motion"});
 
-  auto base_lib = load_motion_library(c.rl.env.motions, data_dir());
+  const MujocoCharacter& character = mujoco_character(c.rl.env.character, "env.character");
+  require(c.task != "tracking" || character.name == "humanoid",
+          "tracking runs on the humanoid only: the text generator is trained on the humanoid's skeleton (the " +
+              character.name + " has no generator)",
+          {{}, {}, "--task"});
+  auto base_lib = load_motion_library(c.rl.env.motions, data_dir(), character.name);
   std::shared_ptr<MotionLibrary> new_lib =
-      c.task != "tracking" && !c.new_motions.empty() ? load_motion_library(c.new_motions, data_dir()) : base_lib;
+      c.task != "tracking" && !c.new_motions.empty() ? load_motion_library(c.new_motions, data_dir(), character.name) : base_lib;
   ThreadPool pool(static_cast<std::size_t>(c.rl.run.threads));
-  MujocoHumanoidSim sim(static_cast<std::size_t>(c.rl.env.num_envs), pool, humanoid_description(), task_objects(c.task));
+  MujocoHumanoidSim sim(static_cast<std::size_t>(c.rl.env.num_envs), pool, character, task_objects(c.task));
   const Index obs_dim = observation_dim(sim.skeleton()), A = sim.skeleton().num_dofs();
   // The frozen base and its action space (PD target = offset + scale ⊙ â). Resume: placeholders,
   // replaced by the checkpoint's base/ sections (action space included) in trainer.load. Scratch:
@@ -298,7 +308,7 @@ void run_train_residual(const Args& a) {
     setup.goal = make_goal_task(c.task, sim, c.rl.run.seed);
     setup.goal_weight = c.objective_weights.empty() ? 0.5 : c.objective_weights.back();
   }
-  std::cout << "train-residual: task " << c.task << ", method " << c.method << ", masks";
+  std::cout << "train-residual: " << character.name << ", task " << c.task << ", method " << c.method << ", masks";
   for (const auto& m : setup.masks) std::cout << " " << m.to_string();
   if (!c.goal_parts.empty()) std::cout << " (and for the goal " << PartMask::parse(c.goal_parts).to_string() << ")";
   std::cout << ", " << setup.discriminators.size() << " discriminator(s), out " << c.rl.run.out_dir
@@ -306,7 +316,7 @@ void run_train_residual(const Args& a) {
   // the policy on the frozen base: the residual (ours, cml, scratch) or AdaptNet
   auto train = [&]<class Policy>() {
     ResidualTrainer<MujocoHumanoidSim, Policy> trainer(sim, library_reset_sampler(base_lib), std::move(base), std::move(setup), c,
-                                                       &pool);
+                                                       &pool, character.fall_criteria(c.rl.env.termination_height));
     if (resume) {
       trainer.load(*resume);
       std::cout << "train-residual: resumed at iteration " << trainer.iteration() << " from " << a.resume << "\n";
@@ -362,7 +372,8 @@ void run_play(const PlayArgs& a, const std::string& command_line) {
   require(!a.bvh.empty() || !a.rollout.empty(), "nothing to write: give --bvh and/or --rollout", {{}, {}, "play-residual"});
   const Checkpoint ck = load_checkpoint(a.checkpoint);
   const ResidualTrainConfig c = residual_config_from_json(nlohmann::json::parse(ck.get_string("residual_config")), a.checkpoint);
-  MujocoHumanoidSim sim(1, 1, humanoid_description(), task_objects(c.task));  // (strike: with its box)
+  const MujocoCharacter& character = mujoco_character(c.rl.env.character, a.checkpoint + " (env.character)");
+  MujocoHumanoidSim sim(1, 1, character, task_objects(c.task));  // (strike: with its box)
   const Skeleton& skel = sim.skeleton();
   const Index obs_dim = observation_dim(skel), A = skel.num_dofs();
   const PartMask designated = PartMask::parse(c.designated);
@@ -371,7 +382,7 @@ void run_play(const PlayArgs& a, const std::string& command_line) {
   // the mask the policy runs with: tracking adapts the designated parts; scratch drives every DoF
   const std::string mask_spec = c.method == "scratch" ? "0:all" : tracking_task ? "0:" + designated.to_string() : a.mask_schedule;
   const auto schedule = MaskSampler::scheduled(mask_spec);
-  auto lib = load_motion_library(c.rl.env.motions, data_dir());
+  auto lib = load_motion_library(c.rl.env.motions, data_dir(), character.name);
   Rng rng(static_cast<std::uint64_t>(a.seed));
   const std::vector<int> bodies = tracking::designated_bodies(skel, designated);
   std::unique_ptr<tracking::BuiltinGenerator> gen;
@@ -398,7 +409,7 @@ void run_play(const PlayArgs& a, const std::string& command_line) {
   MotionClip out;
   out.name = "play_residual";
   out.resize(static_cast<int>(steps), A);
-  eval::Rollout roll = eval::make_rollout(sim.description(), 1.0 / sim.control_dt());
+  eval::Rollout roll = eval::make_rollout(sim.character(), 1.0 / sim.control_dt());
   roll.metadata.command = command_line;
   roll.metadata.checkpoint = a.checkpoint;
   roll.metadata.seed = a.seed;
@@ -508,14 +519,16 @@ void run_eval(const EvalArgs& a) {
                        task == "tracking" ? "composition" : "tracking");
     require_task_flags(a.goal_only, task, "location / heading / strike");
   }
-  auto base_lib = load_motion_library(a.motions.empty() ? c.rl.env.motions : a.motions, data_dir());
+  const MujocoCharacter& character = mujoco_character(c.rl.env.character, a.checkpoint + " (env.character)");
+  const FallCriteria fall = character.fall_criteria(c.rl.env.termination_height);
+  auto base_lib = load_motion_library(a.motions.empty() ? c.rl.env.motions : a.motions, data_dir(), character.name);
   nlohmann::json j;
   j["checkpoint"] = a.checkpoint;
   j["task"] = task;
   j["method"] = c.method;
   if (is_goal_task(task)) {
     ThreadPool pool(static_cast<std::size_t>(c.rl.run.threads));
-    MujocoHumanoidSim sim(static_cast<std::size_t>(a.envs), pool, humanoid_description(), task_objects(task));
+    MujocoHumanoidSim sim(static_cast<std::size_t>(a.envs), pool, character, task_objects(task));
     // the mask the policy runs with: --mask, else the first training mask (scratch: every part;
     // AdaptNet ignores masks)
     const PartMask mask = c.method == "scratch" ? PartMask::all() : PartMask::parse(a.mask.empty() ? c.masks.front() : a.mask, "--mask");
@@ -526,7 +539,7 @@ void run_eval(const EvalArgs& a) {
     opt.episode_seconds = c.rl.env.episode_seconds;
     auto evaluate = [&]<class Policy>() {
       const auto pol = stage2_policy_from_checkpoint<Policy>(ck, sim.skeleton());
-      return evaluate_goal_task(sim, pol, make_goal_task(task, sim, opt.seed), mask, library_reset_sampler(base_lib), std::nullopt, opt,
+      return evaluate_goal_task(sim, pol, make_goal_task(task, sim, opt.seed), mask, library_reset_sampler(base_lib), fall, opt,
                                 &pool);
     };
     const GoalEvalResult r = c.method == "adaptnet" ? evaluate.template operator()<adapt::AdaptNetPolicy<float>>()
@@ -545,9 +558,9 @@ void run_eval(const EvalArgs& a) {
     j["mean_reward"] = r.mean_reward;
     j["fall_rate"] = std::isfinite(r.fall_rate) ? nlohmann::json(r.fall_rate) : nlohmann::json(nullptr);
   } else if (task == "composition") {
-    auto new_lib = load_motion_library(a.new_motion.empty() ? c.new_motions : a.new_motion, data_dir());
+    auto new_lib = load_motion_library(a.new_motion.empty() ? c.new_motions : a.new_motion, data_dir(), character.name);
     ThreadPool pool(static_cast<std::size_t>(c.rl.run.threads));
-    MujocoHumanoidSim sim(static_cast<std::size_t>(a.envs), pool);
+    MujocoHumanoidSim sim(static_cast<std::size_t>(a.envs), pool, character);
     const auto pol = residual_policy_from_checkpoint(ck, sim.skeleton());
     // ours: every training mask; cml / scratch: the adapted group (the first mask)
     std::vector<PartMask> masks;
@@ -564,7 +577,7 @@ void run_eval(const EvalArgs& a) {
     opt.episode_seconds = c.rl.env.episode_seconds;
     std::vector<CompositionResult> rows;
     for (PartMask m : masks) {
-      rows.push_back(evaluate_composition(sim, pol, m, *base_lib, *new_lib, library_reset_sampler(base_lib), std::nullopt, opt, &pool,
+      rows.push_back(evaluate_composition(sim, pol, m, *base_lib, *new_lib, library_reset_sampler(base_lib), fall, opt, &pool,
                                           run_mask));
     }
     std::cout << "eval-residual composition: " << a.envs << " envs x " << a.frames << " frames, threshold "
@@ -576,7 +589,7 @@ void run_eval(const EvalArgs& a) {
     j["rows"] = nlohmann::json::array();
     for (const auto& r : rows) j["rows"].push_back(to_json(r));
   } else {
-    MujocoHumanoidSim sim(static_cast<std::size_t>(a.repeats));
+    MujocoHumanoidSim sim(static_cast<std::size_t>(a.repeats), 1, character);
     const auto pol = residual_policy_from_checkpoint(ck, sim.skeleton());
     const std::string gpath = a.generator.empty() ? c.generator : a.generator;
     require(!gpath.empty(), "tracking evaluation needs a generator", {{}, {}, "--generator"});
@@ -595,8 +608,6 @@ void run_eval(const EvalArgs& a) {
     opt.seconds = a.seconds;
     opt.deterministic = !a.stochastic;
     opt.seed = static_cast<std::uint64_t>(a.seed);
-    const FallCriteria fall = FallCriteria::for_skeleton(sim.skeleton(), {"L_Ankle", "R_Ankle", "L_Toe", "R_Toe", "L_Wrist", "R_Wrist"},
-                                                         "Head", c.rl.env.termination_height);
     const auto ev = evaluate_tracking(sim, pol, gen, PartMask::parse(c.designated), c.goal_steps, *base_lib, fall, opt,
                                       c.method == "scratch" ? std::optional<PartMask>(PartMask::all()) : std::nullopt);
     std::cout << "eval-residual tracking: " << opt.prompts.size() << " prompts x " << a.seconds << " s x " << a.repeats
@@ -631,6 +642,9 @@ const bool registered = maskadapt::cli::register_command([](CLI::App& app) {
   keep(c->add_option("--base", a->base, "stage-1 checkpoint (train-base output)"));
   keep(c->add_option("--new-motion", a->new_motion, "new motion set B: builtin name | DIR | FILE ..."));
   keep(c->add_option("--motions", a->motions, "base motion set A (default: the preset's env.motions)"));
+  keep(c->add_option("--character", a->character,
+                     "humanoid | g1 (default: the base's character; with --method scratch: humanoid)"))
+      ->check(one_of({"humanoid", "g1"}));
   keep(c->add_option("--masks", a->masks, "training mask set, e.g. lower_body arms (cml: the first is the fixed region)"))
       ->check(training_mask);
   keep(c->add_option("--switch-rate", a->switch_rate, "mid-episode mask switches per second"))->check(non_negative_real());

@@ -45,7 +45,7 @@ TEST(MujocoScene, BoxStateReadBackMatchesTheOneWritten) {
   // One control step of semi-implicit Euler in free flight, k substeps of h:
   //   v = v0 + k·h·g,  x = x0 + k·h·v0 + h²·g·k(k+1)/2,  yaw = yaw0 + ω·k·h.
   sim.step(MatrixXf(humanoid_standing_pose().q.cast<float>()));
-  const double h = sim.description().physics_dt, k = sim.description().substeps;
+  const double h = sim.character().physics_dt, k = sim.character().substeps;
   const Vec3 g(sim.model()->opt.gravity[0], sim.model()->opt.gravity[1], sim.model()->opt.gravity[2]);
   ASSERT_NEAR(g.z(), -9.81, 1e-12);
   const RigidState& r1 = sim.object_state(0, 0);

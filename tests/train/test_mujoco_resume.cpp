@@ -191,7 +191,7 @@ TEST(MujocoPlay, ExportedBvhAndRolloutReadBackWithTheLibraryReaders) {
   PlayOptions opt;
   opt.seconds = 0.5;
   opt.masks = MaskSampler::fixed(PartMask::parse("left_leg,right_leg"));
-  const PlayResult r = play_base_policy(sim, policy, library_reset_sampler(lib), opt, eval::make_rollout(sim.description()));
+  const PlayResult r = play_base_policy(sim, policy, library_reset_sampler(lib), opt, eval::make_rollout(sim.character()));
   ASSERT_EQ(r.rollout.num_frames(), 16);
   // the recovered joint angles reproduce MuJoCo's body positions through the library's FK
   double worst = 0;

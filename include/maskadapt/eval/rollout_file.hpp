@@ -32,6 +32,7 @@
 #include <maskadapt/core/types.hpp>
 #include <maskadapt/humanoid/description.hpp>
 #include <maskadapt/mask/parts.hpp>
+#include <maskadapt/motion/geometry.hpp>
 #include <maskadapt/motion/skeleton.hpp>
 
 #include <nlohmann/json.hpp>
@@ -168,8 +169,10 @@ inline RolloutSkeleton rollout_skeleton(const Skeleton& skel, double radius = 0.
   return s;
 }
 
-/// Skeleton part of a rollout with the humanoid description's own collision geoms.
-inline RolloutSkeleton rollout_skeleton(const HumanoidDescription& d) {
+/// Skeleton part of a rollout with a character's own collision geoms (a HumanoidDescription, a
+/// MujocoCharacter: any CharacterGeometry).
+template <CharacterGeometry D>
+RolloutSkeleton rollout_skeleton(const D& d) {
   RolloutSkeleton s = rollout_skeleton(d.skeleton);
   require(d.bodies.size() == s.geoms.size(), "description has the wrong number of bodies", {{}, {}, "bodies"});
   for (std::size_t i = 0; i < d.bodies.size(); ++i) {
@@ -195,7 +198,8 @@ inline Rollout make_rollout(const Skeleton& skel, double fps = 30.0) {
   r.fps = fps;
   return r;
 }
-inline Rollout make_rollout(const HumanoidDescription& d, double fps = 30.0) {
+template <CharacterGeometry D>
+Rollout make_rollout(const D& d, double fps = 30.0) {
   Rollout r;
   r.skeleton = rollout_skeleton(d);
   r.fps = fps;

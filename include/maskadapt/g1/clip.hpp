@@ -5,6 +5,7 @@
 #include <maskadapt/core/error.hpp>
 #include <maskadapt/core/types.hpp>
 #include <maskadapt/g1/description.hpp>
+#include <maskadapt/motion/clip.hpp>
 #include <maskadapt/motion/npz.hpp>
 
 #include <cmath>
@@ -103,5 +104,32 @@ inline G1Clip g1_clip_from_archive(const npz::Archive& a, const std::string& fil
 
 inline void save_g1_clip(const std::string& path, const G1Clip& c) { npz::write(path, g1_clip_to_archive(c)); }
 inline G1Clip load_g1_clip(const std::string& path) { return g1_clip_from_archive(npz::read(path), path); }
+
+/// Whether `path` is a G1 clip file (an .npz whose `format` is maskadapt.g1clip.v1); false for
+/// any other file, readable or not.
+inline bool is_g1_clip_file(const std::string& path) {
+  try {
+    const npz::Archive a = npz::read(path);
+    const auto it = a.find("format");
+    return it != a.end() && !it->second.numeric && it->second.text == "maskadapt.g1clip.v1";
+  } catch (const Error&) {
+    return false;
+  }
+}
+
+/// The same motion as a `MotionClip` on `g1_skeleton()` (g1/skeleton.hpp: DoF k is joint k), so
+/// that `MotionLibrary`, AMP windows and the trainers take it like any other clip.
+inline MotionClip to_motion_clip(const G1Clip& c) {
+  c.validate(c.name);
+  MotionClip m;
+  m.name = c.name;
+  m.description = c.description;
+  m.fps = c.fps;
+  m.loop = c.loop;
+  m.root_pos = c.root_pos;
+  m.root_rot = c.root_rot;
+  m.q = c.q;
+  return m;
+}
 
 }  // namespace maskadapt::g1

@@ -29,7 +29,6 @@ inline MotionClip blend_parts(const MotionClip& a, const MotionClip& b, PartMask
                               const BlendOptions& opt = {}) {
   a.validate(skel);
   b.validate(skel);
-  skel.require_xyz_layout("blend_parts (interpolates x-y-z joint rotations)");
   require(std::isfinite(opt.b_offset) && std::isfinite(opt.b_speed) && opt.b_speed > 0,
           "blend offset/speed must be finite (speed > 0)", {{}, {}, "blend"});
   MotionClip out = a;
@@ -56,12 +55,12 @@ inline MotionClip blend_parts(const MotionClip& a, const MotionClip& b, PartMask
       f = std::clamp<long long>(f, 0, T - 1);
       frame = static_cast<int>(f);
     } else {
-      clip_pose(bl, tb, s);
+      clip_pose(skel, bl, tb, s);
     }
     for (int body = 1; body < skel.num_bodies(); ++body) {
       if (!mask.has(skel.parts[body])) continue;
-      const int k = skel.dof_offset(body);
-      out.q.col(t).segment<3>(k) = frame >= 0 ? Vec3(bl.q.col(frame).segment<3>(k)) : Vec3(s.q.segment<3>(k));
+      const int k = skel.dof_offset(body), n = skel.num_dofs_of(body);
+      out.q.col(t).segment(k, n) = frame >= 0 ? VectorXd(bl.q.col(frame).segment(k, n)) : VectorXd(s.q.segment(k, n));
     }
   }
   return out;
@@ -100,8 +99,8 @@ inline MotionClip blend_parts_switched(const MotionClip& a, const MotionClip& b,
     const double w = sw.weight(t / a.fps);
     for (int body = 1; body < skel.num_bodies(); ++body) {
       if (!mask.has(skel.parts[body])) continue;
-      const int k = skel.dof_offset(body);
-      out.q.col(t).segment<3>(k) = (1.0 - w) * a.q.col(t).segment<3>(k) + w * out.q.col(t).segment<3>(k);
+      for (int k = skel.dof_offset(body); k < skel.dof_offset(body) + skel.num_dofs_of(body); ++k)
+        out.q(k, t) = (1.0 - w) * a.q(k, t) + w * out.q(k, t);
     }
   }
   return out;

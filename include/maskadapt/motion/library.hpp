@@ -5,10 +5,12 @@
 ///
 /// Interpolation at time t (frame u = t·fps between frames i and i+1, weight w = u − i):
 ///  - root position: lerp; root rotation: slerp;
-///  - each joint: slerp of the two joint rotations R_x R_y R_z, converted back to the 3-hinge
-///    angles nearest the lerped angles (continuous; equals the lerp for single-axis motion), so
-///    clips here are on skeletons with the x-y-z layout (Skeleton::has_xyz_layout), as the
-///    humanoid's; MotionLibrary refuses other skeletons;
+///  - a joint of three hinges about x, y, z (the humanoid's): slerp of the two joint rotations
+///    R_x R_y R_z, converted back to the 3-hinge angles nearest the lerped angles (continuous;
+///    equals the lerp for single-axis motion);
+///  - any other joint (one or two hinges, or axes other than x, y, z: the G1's links): each
+///    hinge angle is lerped — a single hinge's rotation is the lerp of its angle exactly, and a
+///    chain of hinges is interpolated per hinge as the robot's own joints would move;
 /// Velocities: central differences over ±h with h = 1/fps (one frame each side; one-sided at the
 /// ends of a non-looping clip): v = (p(t+h) − p(t−h)) / 2h, ω_root = log(R(t+h) R(t−h)ᵀ) / 2h,
 /// q̇ = wrap(q(t+h) − q(t−h)) / 2h; body velocities follow by forward_kinematics.
@@ -33,8 +35,9 @@
 namespace maskadapt {
 
 
-/// Pose (no velocities) of a clip at time t (s). Non-looping clips clamp t to [0, duration].
-inline void clip_pose(const MotionClip& c, double t, KinematicState& out) {
+/// Pose (no velocities) of a clip on `skel` at time t (s). Non-looping clips clamp t to
+/// [0, duration].
+inline void clip_pose(const Skeleton& skel, const MotionClip& c, double t, KinematicState& out) {
   const int T = c.num_frames();
   require(T >= 1, "clip '" + c.name + "' has no frames", {{}, {}, "clip"});
   require(std::isfinite(t), "time is not finite", {{}, {}, "time"});
@@ -51,15 +54,24 @@ inline void clip_pose(const MotionClip& c, double t, KinematicState& out) {
   const double w = i1 == i0 ? 0.0 : u - i0;
   out.root_pos = (1 - w) * c.root_pos.col(i0) + w * c.root_pos.col(i1);
   out.root_rot = slerp(c.rot(i0), c.rot(i1), w);
+  if (c.num_dofs() != skel.num_dofs())
+    throw Error("clip '" + c.name + "' has " + std::to_string(c.num_dofs()) + " joint angles, the skeleton " +
+                    std::to_string(skel.num_dofs()),
+                {{}, {}, "clip"});
   out.q.resize(c.num_dofs());
-  for (int k = 0; k + 3 <= c.num_dofs(); k += 3) {
-    const Vec3 a0 = c.q.col(i0).segment<3>(k), a1 = c.q.col(i1).segment<3>(k);
-    if (w == 0.0 || a0 == a1) {
-      out.q.segment<3>(k) = a0;
-      continue;
+  for (int b = 1; b < skel.num_bodies(); ++b) {
+    const int k = skel.dof_offset(b), n = skel.num_dofs_of(b);
+    if (n == 3 && skel.has_xyz_hinges(b)) {
+      const Vec3 a0 = c.q.col(i0).segment<3>(k), a1 = c.q.col(i1).segment<3>(k);
+      if (w == 0.0 || a0 == a1) {
+        out.q.segment<3>(k) = a0;
+        continue;
+      }
+      const Quat L = slerp(joint_rotation(a0), joint_rotation(a1), w);
+      out.q.segment<3>(k) = joint_angles_near(L, (1 - w) * a0 + w * a1);
+    } else {
+      for (int j = k; j < k + n; ++j) out.q[j] = w == 0.0 ? c.q(j, i0) : (1 - w) * c.q(j, i0) + w * c.q(j, i1);
     }
-    const Quat L = slerp(joint_rotation(a0), joint_rotation(a1), w);
-    out.q.segment<3>(k) = joint_angles_near(L, (1 - w) * a0 + w * a1);
   }
   if (cycle != 0) {
     // apply G^cycle: yaw by cycle·Δψ about the first frame's ground point, then translate
@@ -109,17 +121,17 @@ inline void velocities_from_poses(const KinematicState& a, const KinematicState&
   for (Index k = 0; k < out.qd.size(); ++k) out.qd[k] = wrap_angle(b.q[k] - a.q[k]) / dt;
 }
 
-/// Pose and velocities of a clip at time t (see file comment).
-inline void clip_state(const MotionClip& c, double t, KinematicState& out) {
-  clip_pose(c, t, out);
+/// Pose and velocities of a clip on `skel` at time t (see file comment).
+inline void clip_state(const Skeleton& skel, const MotionClip& c, double t, KinematicState& out) {
+  clip_pose(skel, c, t, out);
   const auto [t1, t2] = central_difference_times(c, t);
   if (t2 - t1 <= 1e-12) {
     velocities_from_poses(out, out, t1, t2, out);
     return;
   }
   KinematicState a, b;
-  clip_pose(c, t1, a);
-  clip_pose(c, t2, b);
+  clip_pose(skel, c, t1, a);
+  clip_pose(skel, c, t2, b);
   velocities_from_poses(a, b, t1, t2, out);
 }
 
@@ -146,11 +158,9 @@ struct ClipTime {
 
 class MotionLibrary {
  public:
-  /// A library of clips on `skel` (e.g. `humanoid_skeleton()`, humanoid/description.hpp).
-  explicit MotionLibrary(const Skeleton& skel) : skel_(skel) {
-    skel_.validate();
-    skel_.require_xyz_layout("MotionLibrary (clips interpolate x-y-z joint rotations)");
-  }
+  /// A library of clips on `skel` (e.g. `humanoid_skeleton()`, humanoid/description.hpp, or
+  /// `g1::g1_skeleton()`): any hinge layout (see the file comment for how joints interpolate).
+  explicit MotionLibrary(const Skeleton& skel) : skel_(skel) { skel_.validate(); }
 
   /// Adds a clip (validated against the skeleton) with a sampling weight > 0; returns its index.
   int add(MotionClip clip, double weight = 1.0) {
@@ -194,7 +204,7 @@ class MotionLibrary {
   }
 
   /// Interpolated pose + velocities (see file comment).
-  void state(int clip, double time, KinematicState& out) const { clip_state(this->clip(clip), time, out); }
+  void state(int clip, double time, KinematicState& out) const { clip_state(skel_, this->clip(clip), time, out); }
   KinematicState state(int clip, double time) const {
     KinematicState s;
     state(clip, time, s);
@@ -246,7 +256,7 @@ class MotionLibrary {
     }
     // grid pose j at t_end − (kAmpWindowFrames − j)·Δ, j = 0 … kAmpWindowFrames + 1
     auto& grid = scratch.grid;
-    for (int j = 0; j < kAmpWindowFrames + 2; ++j) clip_pose(c, frame_time(j - 1), grid[static_cast<std::size_t>(j)]);
+    for (int j = 0; j < kAmpWindowFrames + 2; ++j) clip_pose(skel_, c, frame_time(j - 1), grid[static_cast<std::size_t>(j)]);
     KinematicState& s = scratch.state;
     for (int k = 0; k < kAmpWindowFrames; ++k) {
       const KinematicState& pose = grid[static_cast<std::size_t>(k + 1)];

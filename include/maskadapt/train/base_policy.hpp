@@ -217,6 +217,12 @@ struct LoadedBasePolicy {
 /// export`; then only the actor, see LoadedBasePolicy::policy_only, after check_policy_export
 /// against `dims`). The architecture comes from the `config` section. `source` labels errors
 /// (e.g. the file path; "": the checkpoint's own source).
+/// The character (env.character) a base checkpoint or export was trained on, from its config.
+inline std::string checkpoint_character(const Checkpoint& c, const std::string& source = {}) {
+  const std::string file = source.empty() ? c.source() : source;
+  return config_from_string(c.get_string("config"), file + " (config)").env.character;
+}
+
 inline LoadedBasePolicy load_base_policy(const Checkpoint& c, const PolicyDims& dims, const std::string& source = {}) {
   const std::string file = source.empty() ? c.source() : source;
   LoadedBasePolicy out;

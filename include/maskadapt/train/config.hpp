@@ -63,6 +63,9 @@ struct RunConfig {
 
 /// Environment / task.
 struct EnvConfig {
+  /// The simulated character: "humanoid" (the 22-body reference humanoid) or "g1" (the G1-like
+  /// robot; its clips are retargeted from the humanoid's sources). sim/mujoco/character.hpp.
+  std::string character = "humanoid";
   int num_envs = 32;
   std::vector<std::string> motions = {"locomotion"};  ///< builtin set name(s), directories or files
   double episode_seconds = 10.0;   ///< episode length limit (truncation, not termination)
@@ -178,6 +181,8 @@ struct BaseTrainConfig {
       if (!ok) throw Error(msg, {file, std::nullopt, field});
     };
     check(preset == "cpu" || preset == "paper" || preset == "custom", "preset", "expected cpu, paper or custom");
+    check(env.character == "humanoid" || env.character == "g1", "env.character",
+          "expected humanoid or g1, got '" + env.character + "'");
     // Every real-valued field must be finite (a JSON literal such as 1e999 reads as +inf).
     const std::pair<const char*, double> reals[] = {
         {"run.minutes", run.minutes},
@@ -306,7 +311,8 @@ inline nlohmann::json to_json(const BaseTrainConfig& c) {
               {"minutes", c.run.minutes},   {"checkpoint_every", c.run.checkpoint_every},
               {"keep_checkpoints", c.run.keep_checkpoints},
               {"out_dir", c.run.out_dir},   {"threads", c.run.threads}};
-  j["env"] = {{"num_envs", c.env.num_envs},
+  j["env"] = {{"character", c.env.character},
+              {"num_envs", c.env.num_envs},
               {"motions", c.env.motions},
               {"episode_seconds", c.env.episode_seconds},
               {"termination_height", c.env.termination_height},
@@ -380,6 +386,7 @@ inline BaseTrainConfig config_from_json(const nlohmann::json& j, const std::stri
   }
   {
     auto r = top.child("env");
+    r.get("character", c.env.character);  // (absent in configs written before the G1: the humanoid)
     r.get("num_envs", c.env.num_envs);
     r.get("motions", c.env.motions);
     r.get("episode_seconds", c.env.episode_seconds);

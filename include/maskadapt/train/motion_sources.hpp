@@ -5,6 +5,9 @@
 /// the 4 preceding reference frames as discriminator history) and the discriminator's real
 /// window sampler from it.
 #include <maskadapt/core/error.hpp>
+#include <maskadapt/g1/clip.hpp>
+#include <maskadapt/g1/retarget.hpp>
+#include <maskadapt/g1/skeleton.hpp>
 #include <maskadapt/motion/library.hpp>
 #include <maskadapt/humanoid/synthetic.hpp>
 #include <maskadapt/tasks/imitation.hpp>
@@ -24,9 +27,31 @@ namespace maskadapt::train {
 /// `bandai-run`, `bandai-gestures`, `bandai-actions`, `styles`, `cmu-131` — motion_set_specs()),
 /// a directory (all .bvh/.npz files in it, sorted) or one clip file. Throws naming the source
 /// when nothing can be loaded.
+///
+/// `character` "g1" (sim/mujoco/character.hpp's names) gives a library on `g1::g1_skeleton()`:
+/// every humanoid clip the sources name is retargeted onto the robot (g1/retarget.hpp, default
+/// options: 0.2 s per 6-s clip), and G1 clip files (`maskadapt motion import --character g1`,
+/// format maskadapt.g1clip.v1) are taken as they are.
 inline std::shared_ptr<MotionLibrary> load_motion_library(const std::vector<std::string>& sources,
-                                                          const std::string& data_dir = motion_data_dir()) {
-  auto lib = std::make_shared<MotionLibrary>(humanoid_skeleton());
+                                                          const std::string& data_dir = motion_data_dir(),
+                                                          const std::string& character = "humanoid") {
+  require(character == "humanoid" || character == "g1",
+          "character must be one of humanoid, g1, got '" + character + "'", {{}, std::nullopt, "env.character"});
+  const bool g1 = character == "g1";
+  auto lib = std::make_shared<MotionLibrary>(g1 ? g1::g1_skeleton() : humanoid_skeleton());
+  auto add = [&](MotionClip c) {
+    if (!g1) {
+      lib->add(std::move(c));
+      return;
+    }
+    MotionClip r = g1::to_motion_clip(g1::retarget_to_g1(c));
+    r.labels = c.labels;  // (what the clip shows does not change with the character)
+    lib->add(std::move(r));
+  };
+  auto add_file = [&](const std::string& path) {
+    if (g1 && g1::is_g1_clip_file(path)) lib->add(g1::to_motion_clip(g1::load_g1_clip(path)));
+    else add(import_motion(path));
+  };
   for (const auto& src : sources) {
     namespace fs = std::filesystem;
     if (fs::is_directory(src)) {
@@ -35,11 +60,11 @@ inline std::shared_ptr<MotionLibrary> load_motion_library(const std::vector<std:
         if (e.path().extension() == ".bvh" || e.path().extension() == ".npz") files.push_back(e.path());
       std::sort(files.begin(), files.end());
       require(!files.empty(), "no .bvh or .npz clips in directory", {src, std::nullopt, "env.motions"});
-      for (const auto& f : files) lib->add(import_motion(f.string()));
+      for (const auto& f : files) add_file(f.string());
     } else if (fs::is_regular_file(src)) {
-      lib->add(import_motion(src));
+      add_file(src);
     } else {
-      for (auto& c : builtin_motion_set(src, data_dir)) lib->add(std::move(c));
+      for (auto& c : builtin_motion_set(src, data_dir)) add(std::move(c));
     }
   }
   require(lib->num_clips() > 0, "no motion clips loaded", {{}, std::nullopt, "env.motions"});

@@ -49,15 +49,25 @@ struct PlayResult {
 };
 
 /// Joint angles of a pose from world body orientations: body i's local rotation R_p(i)ᵀ R_i
-/// decomposed into the 3 hinges (x, y, z) nearest to `hint` (previous frame; keeps sequences
-/// continuous). Returns (num_dofs). Needs the x-y-z layout of the humanoid (throws otherwise).
+/// decomposed into its hinges — three about x, y, z (the humanoid's) nearest to `hint` (previous
+/// frame; keeps sequences continuous), or one hinge about any axis a: the angle of the local
+/// rotation about a, 2·atan2(v·a, w) for its quaternion (w, v), unwrapped towards `hint`.
+/// Returns (num_dofs). Throws for a joint of two hinges, or of three about other axes, whose
+/// angles a rotation alone does not fix here.
 inline VectorXd joint_angles_from_body_states(const Skeleton& skel, const BodyStates& b, const VectorXd& hint) {
-  skel.require_xyz_layout("joint_angles_from_body_states");
   VectorXd q(skel.num_dofs());
+  const bool hinted = hint.size() == q.size();
   for (int i = 1; i < skel.num_bodies(); ++i) {
     const int k = skel.dof_offset(i);
     const Quat local = b.rot[static_cast<std::size_t>(skel.parents[i])].conjugate() * b.rot[static_cast<std::size_t>(i)];
-    q.segment<3>(k) = joint_angles_near(local, hint.size() == q.size() ? Vec3(hint.segment<3>(k)) : Vec3::Zero());
+    if (skel.num_dofs_of(i) == 1) {
+      const double angle = 2.0 * std::atan2(local.vec().dot(skel.dof_axis(k)), local.w());
+      q[k] = hinted ? hint[k] + wrap_angle(angle - hint[k]) : wrap_angle(angle);
+      continue;
+    }
+    if (!skel.has_xyz_hinges(i))
+      skel.require_xyz_hinges(i, "joint_angles_from_body_states (one hinge of any axis, or three about x, y, z)");
+    q.segment<3>(k) = joint_angles_near(local, hinted ? Vec3(hint.segment<3>(k)) : Vec3::Zero());
   }
   return q;
 }

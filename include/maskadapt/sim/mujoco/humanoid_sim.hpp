@@ -1,8 +1,10 @@
 #pragma once
 /// \file humanoid_sim.hpp
-/// `MujocoHumanoidSim`: the reference humanoid on MuJoCo (2.2.2+), N envs stepped in parallel.
+/// `MujocoHumanoidSim`: a humanoid character on MuJoCo (2.2.2+), N envs stepped in parallel —
+/// the reference humanoid by default, or any `MujocoCharacter` (character.hpp: the G1-like robot,
+/// or your own).
 ///
-/// One const `mjModel` (generated from a HumanoidDescription), one `mjData` per env. Each
+/// One const `mjModel` (the character's MJCF), one `mjData` per env. Each
 /// `step(targets)` writes the PD targets into `ctrl`, runs `substeps` Euler steps per env on the
 /// thread pool, refreshes kinematics (`mj_kinematics` + `mj_comPos` + `mj_comVel`: after
 /// `mj_step` MuJoCo's positions describe the state before the last integration) and converts to
@@ -30,6 +32,7 @@
 #include <maskadapt/core/types.hpp>
 #include <maskadapt/humanoid/description.hpp>
 #include <maskadapt/humanoid/mjcf.hpp>
+#include <maskadapt/sim/mujoco/character.hpp>
 #include <maskadapt/sim/scene.hpp>
 #include <maskadapt/sim/simulator.hpp>
 
@@ -100,18 +103,25 @@ class MujocoHumanoidSim {
   /// `objects`: rigid boxes in every env's scene (none by default).
   explicit MujocoHumanoidSim(std::size_t num_envs, std::size_t num_threads = 1,
                              const HumanoidDescription& desc = humanoid_description(), std::vector<BoxObject> objects = {})
-      : MujocoHumanoidSim(num_envs, nullptr, num_threads, desc, std::move(objects)) {}
+      : MujocoHumanoidSim(num_envs, nullptr, num_threads, mujoco_character(desc), std::move(objects)) {}
   MujocoHumanoidSim(std::size_t num_envs, ThreadPool& pool, const HumanoidDescription& desc = humanoid_description(),
                     std::vector<BoxObject> objects = {})
-      : MujocoHumanoidSim(num_envs, &pool, 1, desc, std::move(objects)) {}
+      : MujocoHumanoidSim(num_envs, &pool, 1, mujoco_character(desc), std::move(objects)) {}
+  /// The same for any character (character.hpp); every env starts in `character.standing`.
+  MujocoHumanoidSim(std::size_t num_envs, std::size_t num_threads, const MujocoCharacter& character,
+                    std::vector<BoxObject> objects = {})
+      : MujocoHumanoidSim(num_envs, nullptr, num_threads, character, std::move(objects)) {}
+  MujocoHumanoidSim(std::size_t num_envs, ThreadPool& pool, const MujocoCharacter& character,
+                    std::vector<BoxObject> objects = {})
+      : MujocoHumanoidSim(num_envs, &pool, 1, character, std::move(objects)) {}
 
   MujocoHumanoidSim(const MujocoHumanoidSim&) = delete;
   MujocoHumanoidSim& operator=(const MujocoHumanoidSim&) = delete;
 
   // ---- Simulator concept -------------------------------------------------------------------
   std::size_t num_envs() const { return envs_.size(); }
-  const Skeleton& skeleton() const { return desc_.skeleton; }
-  double control_dt() const { return desc_.control_dt(); }
+  const Skeleton& skeleton() const { return ch_.skeleton; }
+  double control_dt() const { return ch_.control_dt(); }
   const BodyStates& body_states(std::size_t env) const { return at(env).states; }
   const ContactFlags& contacts(std::size_t env) const { return at(env).contacts; }
   const StepStats& step_stats() const { return stats_; }
@@ -120,10 +130,10 @@ class MujocoHumanoidSim {
   /// Throws Error on a malformed pose. Joint angles outside the limits are accepted (MuJoCo pushes
   /// them back through its limit constraints).
   void reset(std::size_t env, const KinematicState& pose) {
-    check_pose(desc_.skeleton, pose);
+    check_pose(ch_.skeleton, pose);
     Env& e = at(env);
     e.reset_pose = pose;
-    if (e.reset_pose.qd.size() == 0) e.reset_pose.qd = VectorXd::Zero(desc_.skeleton.num_dofs());
+    if (e.reset_pose.qd.size() == 0) e.reset_pose.qd = VectorXd::Zero(ch_.skeleton.num_dofs());
     apply_reset(e);
   }
 
@@ -131,14 +141,14 @@ class MujocoHumanoidSim {
   /// clipped to the joint ranges by MuJoCo. Throws Error (before touching any env) on wrong
   /// dimensions or NaN/inf.
   void step(const Eigen::Ref<const MatrixXf>& targets) {
-    check_targets(targets, desc_.skeleton.num_dofs(), static_cast<Index>(num_envs()));
+    check_targets(targets, ch_.skeleton.num_dofs(), static_cast<Index>(num_envs()));
     step_impl([&](std::size_t env, mjtNum* ctrl) {
       for (Index k = 0; k < targets.rows(); ++k) ctrl[k] = static_cast<mjtNum>(targets(k, static_cast<Index>(env)));
     });
   }
   /// Double-precision targets, same contract.
   void step(const Eigen::Ref<const MatrixXd>& targets) {
-    check_targets(targets, desc_.skeleton.num_dofs(), static_cast<Index>(num_envs()));
+    check_targets(targets, ch_.skeleton.num_dofs(), static_cast<Index>(num_envs()));
     step_impl([&](std::size_t env, mjtNum* ctrl) {
       for (Index k = 0; k < targets.rows(); ++k) ctrl[k] = targets(k, static_cast<Index>(env));
     });
@@ -164,7 +174,8 @@ class MujocoHumanoidSim {
   }
 
   // ---- extras --------------------------------------------------------------------------------
-  const HumanoidDescription& description() const { return desc_; }
+  /// The character this simulator runs (skeleton, MJCF, physics step, fall rules, geoms).
+  const MujocoCharacter& character() const { return ch_; }
   const mjModel* model() const { return model_.get(); }
   /// Raw MuJoCo data of one env (advanced use and tests; writing it bypasses all checks).
   mjData* data(std::size_t env) { return at(env).data.get(); }
@@ -174,7 +185,7 @@ class MujocoHumanoidSim {
   /// Joint angles (num_dofs) of an env, read from MuJoCo's qpos.
   VectorXd joint_angles(std::size_t env) const {
     const Env& e = at(env);
-    VectorXd q(desc_.skeleton.num_dofs());
+    VectorXd q(ch_.skeleton.num_dofs());
     for (Index k = 0; k < q.size(); ++k) q[k] = e.data->qpos[qpos_adr_[static_cast<std::size_t>(k)]];
     return q;
   }
@@ -201,7 +212,7 @@ class MujocoHumanoidSim {
     const Env& e = at(env);
     const mjModel* m = model_.get();
     const mjData* d = e.data.get();
-    const int nb = desc_.skeleton.num_bodies(), nd = desc_.skeleton.num_dofs();
+    const int nb = ch_.skeleton.num_bodies(), nd = ch_.skeleton.num_dofs();
     std::vector<double> v{double(m->nq), double(m->nv), double(m->na), double(m->nu), double(nb), double(nd), d->time};
     auto append = [&](const auto* p, int n) { v.insert(v.end(), p, p + n); };
     append(d->qpos, m->nq);
@@ -237,7 +248,7 @@ class MujocoHumanoidSim {
   void load_state(std::size_t env, const std::vector<double>& v) {
     Env& e = at(env);
     const mjModel* m = model_.get();
-    const int nb = desc_.skeleton.num_bodies(), nd = desc_.skeleton.num_dofs();
+    const int nb = ch_.skeleton.num_bodies(), nd = ch_.skeleton.num_dofs();
     const std::size_t expected = 7 + static_cast<std::size_t>(m->nq + 2 * m->nv + m->na + m->nu + 14 * nb + 13 + 2 * nd) +
                                  objects_.size() * static_cast<std::size_t>(13 + nb);
     require(v.size() == expected && v.size() >= 6 && v[0] == m->nq && v[1] == m->nv && v[2] == m->na && v[3] == m->nu &&
@@ -306,15 +317,16 @@ class MujocoHumanoidSim {
     std::vector<ContactFlags> object_contacts;  ///< (num_objects) × (num_bodies)
   };
 
-  MujocoHumanoidSim(std::size_t num_envs, ThreadPool* pool, std::size_t num_threads, const HumanoidDescription& desc,
+  MujocoHumanoidSim(std::size_t num_envs, ThreadPool* pool, std::size_t num_threads, const MujocoCharacter& character,
                     std::vector<BoxObject> objects)
-      : desc_(desc), objects_(std::move(objects)) {
+      : ch_(character), objects_(std::move(objects)) {
     require(num_envs >= 1, "a simulator needs at least one env", {{}, {}, "num_envs"});
-    require(desc_.substeps >= 1 && desc_.physics_dt > 0, "physics_dt and substeps must be positive",
-            {{}, {}, "substeps"});
+    ch_.validate();
     mujoco_detail::install_warning_handler();
     for (const BoxObject& o : objects_) o.validate();
-    model_ = mujoco_detail::load_model_from_string(scene_mjcf(humanoid_mjcf(desc_)));
+    model_ = mujoco_detail::load_model_from_string(scene_mjcf(ch_.mjcf), ch_.name + ".xml");
+    require(std::abs(model_->opt.timestep - ch_.physics_dt) <= 1e-12 * ch_.physics_dt,
+            "character '" + ch_.name + "': the MJCF's timestep differs from physics_dt", {{}, {}, "physics_dt"});
     if (pool) {
       pool_ = pool;
     } else {
@@ -328,11 +340,11 @@ class MujocoHumanoidSim {
     for (auto& e : envs_) {
       e.data.reset(mj_makeData(model_.get()));
       require(e.data != nullptr, "MuJoCo could not allocate mjData", {{}, {}, "num_envs"});
-      e.states.resize(desc_.skeleton.num_bodies());
-      e.contacts.assign(static_cast<std::size_t>(desc_.skeleton.num_bodies()), 0);
+      e.states.resize(ch_.skeleton.num_bodies());
+      e.contacts.assign(static_cast<std::size_t>(ch_.skeleton.num_bodies()), 0);
       e.reset_pose = standing;
       for (std::size_t k = 0; k < objects_.size(); ++k) e.object_states.push_back(parked_state(k));
-      e.object_contacts.assign(objects_.size(), ContactFlags(static_cast<std::size_t>(desc_.skeleton.num_bodies()), 0));
+      e.object_contacts.assign(objects_.size(), ContactFlags(static_cast<std::size_t>(ch_.skeleton.num_bodies()), 0));
       apply_reset(e);
     }
   }
@@ -344,7 +356,7 @@ class MujocoHumanoidSim {
     return s;
   }
 
-  /// The humanoid's MJCF with one free body per scene object appended to the world.
+  /// The character's MJCF with one free body per scene object appended to the world.
   std::string scene_mjcf(std::string xml) const {
     if (objects_.empty()) return xml;
     using detail::mjcf_num, detail::mjcf_vec;
@@ -397,15 +409,11 @@ class MujocoHumanoidSim {
     }
   }
 
-  KinematicState standing_pose() const {
-    KinematicState s = KinematicState::zero(desc_.skeleton);
-    s.root_pos = Vec3(0, 0, desc_.root_height);
-    return s;
-  }
+  KinematicState standing_pose() const { return ch_.standing; }
 
   /// Maps the skeleton's bodies/DoFs to MuJoCo ids and addresses (by name).
   void index_model() {
-    const Skeleton& s = desc_.skeleton;
+    const Skeleton& s = ch_.skeleton;
     const mjModel* m = model_.get();
     require(m->nu == s.num_dofs(), "model has " + std::to_string(m->nu) + " actuators, expected " +
                                        std::to_string(s.num_dofs()), {{}, {}, "actuators"});
@@ -422,18 +430,21 @@ class MujocoHumanoidSim {
     root_dof_ = m->jnt_dofadr[root_joint];
     qpos_adr_.resize(static_cast<std::size_t>(s.num_dofs()));
     dof_adr_.resize(static_cast<std::size_t>(s.num_dofs()));
-    s.require_xyz_layout("MujocoHumanoidSim (joints named <body>_x/_y/_z, humanoid/mjcf.hpp)");
-    for (int i = 1; i < s.num_bodies(); ++i)
-      for (int k = 0; k < 3; ++k) {
-        const std::string name = s.names[static_cast<std::size_t>(i)] + (k == 0 ? "_x" : k == 1 ? "_y" : "_z");
-        const int j = mj_name2id(m, mjOBJ_JOINT, name.c_str());
-        require(j >= 0, "model has no joint '" + name + "'", {{}, {}, "joints"});
-        const auto dof = static_cast<std::size_t>(s.dof_offset(i) + k);
-        qpos_adr_[dof] = m->jnt_qposadr[j];
-        dof_adr_[dof] = m->jnt_dofadr[j];
-        require(m->actuator_trnid[2 * static_cast<int>(dof)] == j, "actuator " + std::to_string(dof) +
-                    " does not drive joint '" + name + "'", {{}, {}, "actuators"});
-      }
+    for (int k = 0; k < s.num_dofs(); ++k) {
+      const std::string& name = ch_.joint_names[static_cast<std::size_t>(k)];
+      const int j = mj_name2id(m, mjOBJ_JOINT, name.c_str());
+      require(j >= 0 && m->jnt_type[j] == mjJNT_HINGE, "model has no hinge '" + name + "'", {{}, {}, "joints"});
+      require(m->jnt_bodyid[j] == body_id_[static_cast<std::size_t>(s.dof_body(k))],
+              "hinge '" + name + "' is not on body '" + s.names[static_cast<std::size_t>(s.dof_body(k))] + "'",
+              {{}, {}, "joints"});
+      const Vec3 axis(m->jnt_axis[3 * j], m->jnt_axis[3 * j + 1], m->jnt_axis[3 * j + 2]);
+      require((axis - s.dof_axis(k)).norm() < 1e-9, "hinge '" + name + "' has another axis than the skeleton's DoF " +
+                                                         std::to_string(k), {{}, {}, "joints"});
+      qpos_adr_[static_cast<std::size_t>(k)] = m->jnt_qposadr[j];
+      dof_adr_[static_cast<std::size_t>(k)] = m->jnt_dofadr[j];
+      require(m->actuator_trnid[2 * k] == j, "actuator " + std::to_string(k) + " does not drive joint '" + name + "'",
+              {{}, {}, "actuators"});
+    }
     body_of_geom_.resize(static_cast<std::size_t>(m->ngeom), -1);
     for (int g = 0; g < m->ngeom; ++g)
       for (int i = 0; i < s.num_bodies(); ++i)
@@ -509,7 +520,7 @@ class MujocoHumanoidSim {
       write_ctrl(env, d->ctrl);
       bool bad = false;
       for (auto& flags : e.object_contacts) std::fill(flags.begin(), flags.end(), 0);
-      for (int s = 0; s < desc_.substeps && !bad; ++s) {
+      for (int s = 0; s < ch_.substeps && !bad; ++s) {
         const mjtNum t0 = d->time;
         mj_step(m, d);
         bad = !(d->time > t0) || failed(d);  // MuJoCo resets data (time → 0) on instability
@@ -567,7 +578,7 @@ class MujocoHumanoidSim {
     }
   }
 
-  HumanoidDescription desc_;
+  MujocoCharacter ch_;
   std::vector<BoxObject> objects_;
   mujoco_detail::ModelPtr model_;
   std::unique_ptr<ThreadPool> owned_pool_;
