@@ -53,7 +53,7 @@ void run_eval_base(const EvalBaseArgs& a) {
   const LoadedBasePolicy loaded =
       load_base_policy(ck, {d, d + kNumParts, sim.skeleton().num_dofs(), d * kAmpWindowFrames}, a.checkpoint);
   const auto motions = a.motions.empty() ? loaded.config.env.motions : a.motions;
-  auto lib = load_motion_library(motions, motion_data_dir(MASKADAPT_SOURCE_DIR "/../shared/data"), character.name);
+  auto lib = load_motion_library(motions, motion_data_dir(MASKADAPT_SOURCE_DIR "/../shared/data"), character);
   const MatrixXf reference = reference_visitation_features(*lib);
 
   EvalBaseOptions opt;

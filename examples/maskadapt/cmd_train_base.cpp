@@ -94,7 +94,7 @@ void run_train_base(const TrainBaseArgs& a) {
   throw Error("this build has no MuJoCo; train-base needs the maskadapt::mujoco target", {{}, std::nullopt, "train-base"});
 #else
   const MujocoCharacter& character = mujoco_character(cfg.env.character, "env.character");
-  auto lib = load_motion_library(cfg.env.motions, motion_data_dir(MASKADAPT_SOURCE_DIR "/../shared/data"), character.name);
+  auto lib = load_motion_library(cfg.env.motions, motion_data_dir(MASKADAPT_SOURCE_DIR "/../shared/data"), character);
   if (world.distributed())
     require(cfg.env.num_envs % world.size() == 0,
             std::to_string(cfg.env.num_envs) + " envs do not split evenly over " + std::to_string(world.size()) +
@@ -143,7 +143,7 @@ const bool registered = maskadapt::cli::register_command([](CLI::App& app) {
   c->add_option("--motions", args->motions, "motion sources: locomotion | synthetic | DIR | FILE ...");
   CLI::Option* character = c->add_option("--character", args->character,
                                          "humanoid | g1: the simulated character (g1: the sources are retargeted onto the robot)")
-                               ->check(one_of({"humanoid", "g1"}));
+                               ->check(one_of(maskadapt::character_names()));
   c->add_option("--envs", args->envs, "number of parallel envs")->transform(integer_in(1, maskadapt::train::kMaxEnvs));
   c->add_option("--threads", args->threads, "threads for simulation and network passes (0 = all cores)")
       ->transform(integer_in(0, maskadapt::train::kMaxThreads));

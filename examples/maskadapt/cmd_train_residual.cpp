@@ -276,9 +276,9 @@ void run_train_residual(const Args& a) {
           "tracking runs on the humanoid only: the text generator is trained on the humanoid's skeleton (the " +
               character.name + " has no generator)",
           {{}, {}, "--task"});
-  auto base_lib = load_motion_library(c.rl.env.motions, data_dir(), character.name);
+  auto base_lib = load_motion_library(c.rl.env.motions, data_dir(), character);
   std::shared_ptr<MotionLibrary> new_lib =
-      c.task != "tracking" && !c.new_motions.empty() ? load_motion_library(c.new_motions, data_dir(), character.name) : base_lib;
+      c.task != "tracking" && !c.new_motions.empty() ? load_motion_library(c.new_motions, data_dir(), character) : base_lib;
   ThreadPool pool(static_cast<std::size_t>(c.rl.run.threads));
   MujocoHumanoidSim sim(static_cast<std::size_t>(c.rl.env.num_envs), pool, character, task_objects(c.task));
   const Index obs_dim = observation_dim(sim.skeleton()), A = sim.skeleton().num_dofs();
@@ -382,7 +382,7 @@ void run_play(const PlayArgs& a, const std::string& command_line) {
   // the mask the policy runs with: tracking adapts the designated parts; scratch drives every DoF
   const std::string mask_spec = c.method == "scratch" ? "0:all" : tracking_task ? "0:" + designated.to_string() : a.mask_schedule;
   const auto schedule = MaskSampler::scheduled(mask_spec);
-  auto lib = load_motion_library(c.rl.env.motions, data_dir(), character.name);
+  auto lib = load_motion_library(c.rl.env.motions, data_dir(), character);
   Rng rng(static_cast<std::uint64_t>(a.seed));
   const std::vector<int> bodies = tracking::designated_bodies(skel, designated);
   std::unique_ptr<tracking::BuiltinGenerator> gen;
@@ -521,7 +521,7 @@ void run_eval(const EvalArgs& a) {
   }
   const MujocoCharacter& character = mujoco_character(c.rl.env.character, a.checkpoint + " (env.character)");
   const FallCriteria fall = character.fall_criteria(c.rl.env.termination_height);
-  auto base_lib = load_motion_library(a.motions.empty() ? c.rl.env.motions : a.motions, data_dir(), character.name);
+  auto base_lib = load_motion_library(a.motions.empty() ? c.rl.env.motions : a.motions, data_dir(), character);
   nlohmann::json j;
   j["checkpoint"] = a.checkpoint;
   j["task"] = task;
@@ -558,7 +558,7 @@ void run_eval(const EvalArgs& a) {
     j["mean_reward"] = r.mean_reward;
     j["fall_rate"] = std::isfinite(r.fall_rate) ? nlohmann::json(r.fall_rate) : nlohmann::json(nullptr);
   } else if (task == "composition") {
-    auto new_lib = load_motion_library(a.new_motion.empty() ? c.new_motions : a.new_motion, data_dir(), character.name);
+    auto new_lib = load_motion_library(a.new_motion.empty() ? c.new_motions : a.new_motion, data_dir(), character);
     ThreadPool pool(static_cast<std::size_t>(c.rl.run.threads));
     MujocoHumanoidSim sim(static_cast<std::size_t>(a.envs), pool, character);
     const auto pol = residual_policy_from_checkpoint(ck, sim.skeleton());
@@ -644,7 +644,7 @@ const bool registered = maskadapt::cli::register_command([](CLI::App& app) {
   keep(c->add_option("--motions", a->motions, "base motion set A (default: the preset's env.motions)"));
   keep(c->add_option("--character", a->character,
                      "humanoid | g1 (default: the base's character; with --method scratch: humanoid)"))
-      ->check(one_of({"humanoid", "g1"}));
+      ->check(one_of(maskadapt::character_names()));
   keep(c->add_option("--masks", a->masks, "training mask set, e.g. lower_body arms (cml: the first is the fixed region)"))
       ->check(training_mask);
   keep(c->add_option("--switch-rate", a->switch_rate, "mid-episode mask switches per second"))->check(non_negative_real());

@@ -7,24 +7,7 @@
 # another character, and tracking on the robot (its text generator is the humanoid's).
 file(REMOVE_RECURSE ${OUT})
 file(MAKE_DIRECTORY ${OUT})
-function(run what)
-  execute_process(COMMAND ${CLI} ${ARGN} RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err)
-  if(NOT rc EQUAL 0)
-    message(FATAL_ERROR "${what} failed (${rc}):\n${out}\n${err}")
-  endif()
-  set(LAST_OUTPUT "${out}" PARENT_SCOPE)
-endfunction()
-function(refused what pattern)
-  execute_process(COMMAND ${CLI} ${ARGN} RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err)
-  if(rc EQUAL 0 OR NOT "${out}${err}" MATCHES "${pattern}")
-    message(FATAL_ERROR "${what}: expected a refusal matching '${pattern}', got (${rc}):\n${out}\n${err}")
-  endif()
-endfunction()
-function(json_field file out_var)
-  file(READ ${file} j)
-  string(JSON v GET "${j}" ${ARGN})
-  set(${out_var} "${v}" PARENT_SCOPE)
-endfunction()
+include(${CMAKE_CURRENT_LIST_DIR}/../cli_smoke_lib.cmake)
 
 # stage 1 on the robot
 run("train-base --character g1" train-base --config ${CONFIG} --character g1 --motions walk --iterations 2 --envs 2

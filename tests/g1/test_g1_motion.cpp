@@ -6,6 +6,7 @@
 #include <maskadapt/g1/retarget.hpp>
 #include <maskadapt/g1/skeleton.hpp>
 #include <maskadapt/humanoid/synthetic.hpp>
+#include <maskadapt/mask/apply.hpp>
 #include <maskadapt/motion/blend.hpp>
 #include <maskadapt/motion/library.hpp>
 #include <maskadapt/train/config.hpp>
@@ -102,8 +103,8 @@ TEST(G1Motion, BlendTakesTheMaskedLinksFromTheSecondClip) {
 }
 
 TEST(G1Motion, MotionSourcesRetargetOntoTheRobotAndKeepTheLabels) {
-  const auto lib = train::load_motion_library({"walk"}, "", "g1");
-  const auto hum = train::load_motion_library({"walk"}, "", "humanoid");
+  const auto lib = train::load_motion_library({"walk"}, "", mujoco_character("g1"));
+  const auto hum = train::load_motion_library({"walk"}, "", mujoco_character("humanoid"));
   ASSERT_EQ(lib->num_clips(), hum->num_clips());
   EXPECT_EQ(lib->skeleton().num_dofs(), 29);
   EXPECT_EQ(lib->clip(0).labels, hum->clip(0).labels);
@@ -112,15 +113,9 @@ TEST(G1Motion, MotionSourcesRetargetOntoTheRobotAndKeepTheLabels) {
   const std::string file = (std::filesystem::temp_directory_path() / "maskadapt_test_g1_walk.npz").string();
   g1::save_g1_clip(file, g1::retarget_to_g1(synthetic_walk()));
   EXPECT_TRUE(g1::is_g1_clip_file(file));
-  const auto from_file = train::load_motion_library({file}, "", "g1");
+  const auto from_file = train::load_motion_library({file}, "", mujoco_character("g1"));
   EXPECT_EQ(from_file->clip(0).q, lib->clip(0).q);
   std::filesystem::remove(file);
-  try {
-    (void)train::load_motion_library({"walk"}, "", "robot");
-    FAIL() << "an unknown character was accepted";
-  } catch (const Error& e) {
-    EXPECT_NE(std::string(e.what()).find("env.character"), std::string::npos) << e.what();
-  }
 }
 
 TEST(G1Motion, ConfigKeepsTheCharacterAndRefusesUnknownOnes) {
@@ -140,4 +135,23 @@ TEST(G1Motion, ConfigKeepsTheCharacterAndRefusesUnknownOnes) {
   } catch (const Error& e) {
     EXPECT_NE(std::string(e.what()).find("env.character"), std::string::npos) << e.what();
   }
+}
+
+TEST(G1Motion, PartsGroupTheRobotsLinksObservationAndActions) {
+  // Unitree's motor order: legs 0–11, waist 12–14, left arm 15–21, right arm 22–28
+  const auto dof = action_parts(G());
+  for (int k = 0; k < 29; ++k) {
+    const BodyPart want = k < 6 ? BodyPart::LeftLeg : k < 12 ? BodyPart::RightLeg : k < 15 ? BodyPart::Trunk
+                          : k < 22                            ? BodyPart::LeftArm
+                                                              : BodyPart::RightArm;
+    EXPECT_EQ(dof[static_cast<std::size_t>(k)], want) << "DoF " << k;
+  }
+  // every observation element belongs to the part of the link it describes; masking the arms
+  // hides exactly the arm links' 3 + 12 elements each (7 links per arm)
+  const auto obs = observation_parts(G());
+  ASSERT_EQ(obs.size(), static_cast<std::size_t>(observation_dim(G())));
+  const PartElements pe(obs);
+  const VectorXf keep = keep_vector(pe, PartMask::parse("arms"));
+  EXPECT_EQ(keep.size() - keep.sum(), 2 * 7 * 15);
+  EXPECT_EQ(PartElements(dof).of_part[static_cast<std::size_t>(BodyPart::LeftArm)].size(), 7u);
 }

@@ -64,17 +64,7 @@ if(NOT rc EQUAL 0 OR NOT "${out}" MATCHES "task composition, method ours")
   message(FATAL_ERROR "export of the stage-2 checkpoint failed (${rc}): ${out}${err}")
 endif()
 
-# refused(DESCRIPTION REGEX ARGS...): exit status 1 (a maskadapt::Error) or 105 (a flag rejected
-# while parsing), and the output matches REGEX
-function(refused what regex)
-  execute_process(COMMAND ${CLI} ${ARGN} RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err TIMEOUT 60)
-  if(NOT (rc EQUAL 1 OR rc EQUAL 105))
-    message(FATAL_ERROR "export of ${what}: exit status '${rc}', expected 1 or 105: ${out}${err}")
-  endif()
-  if(NOT "${out}${err}" MATCHES "${regex}")
-    message(FATAL_ERROR "export of ${what}: the message does not match '${regex}': ${out}${err}")
-  endif()
-endfunction()
+include(${CMAKE_CURRENT_LIST_DIR}/../cli_smoke_lib.cmake)
 file(WRITE ${OUT}/notes.txt "not a checkpoint\n")
 refused("a missing file" "missing\\.bin" export ${OUT}/missing.bin --out ${OUT}/x.bin)
 refused("a text file" "notes\\.txt: not a maskadapt checkpoint" export ${OUT}/notes.txt --out ${OUT}/x.bin)

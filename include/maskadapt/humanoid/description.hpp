@@ -273,11 +273,4 @@ inline KinematicState humanoid_standing_pose() {
   return s;
 }
 
-/// Part of every action DoF, (num_dofs): the part of the body the hinge moves.
-inline std::vector<BodyPart> action_parts(const Skeleton& skel) {
-  std::vector<BodyPart> parts(static_cast<std::size_t>(skel.num_dofs()));
-  for (int k = 0; k < skel.num_dofs(); ++k) parts[static_cast<std::size_t>(k)] = skel.parts[static_cast<std::size_t>(skel.dof_body(k))];
-  return parts;
-}
-
 }  // namespace maskadapt

@@ -167,6 +167,14 @@ struct Skeleton {
   std::vector<int> first_dof_;    // (last hinged body + 2) first DoF of each body; last entry = num_dofs
 };
 
+/// Part of every action DoF, (num_dofs): the part of the body the hinge moves (the residual's
+/// masked DoFs, adapt/residual_policy.hpp).
+inline std::vector<BodyPart> action_parts(const Skeleton& skel) {
+  std::vector<BodyPart> parts(static_cast<std::size_t>(skel.num_dofs()));
+  for (int k = 0; k < skel.num_dofs(); ++k) parts[static_cast<std::size_t>(k)] = skel.parts[static_cast<std::size_t>(skel.dof_body(k))];
+  return parts;
+}
+
 /// Generalised position + velocity of a skeleton (what a simulator is reset to).
 struct KinematicState {
   Vec3 root_pos = Vec3::Zero();      ///< world position of the root (m)

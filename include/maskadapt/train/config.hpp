@@ -27,10 +27,12 @@
 #include <maskadapt/core/error.hpp>
 #include <maskadapt/core/types.hpp>
 #include <maskadapt/rl/adaptive_lr.hpp>
+#include <maskadapt/sim/mujoco/character_names.hpp>
 #include <maskadapt/train/json_fields.hpp>
 
 #include <nlohmann/json.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <fstream>
@@ -181,8 +183,13 @@ struct BaseTrainConfig {
       if (!ok) throw Error(msg, {file, std::nullopt, field});
     };
     check(preset == "cpu" || preset == "paper" || preset == "custom", "preset", "expected cpu, paper or custom");
-    check(env.character == "humanoid" || env.character == "g1", "env.character",
-          "expected humanoid or g1, got '" + env.character + "'");
+    {
+      std::string known;
+      for (const auto& n : character_names()) known += (known.empty() ? "" : ", ") + n;
+      const auto& names = character_names();
+      check(std::find(names.begin(), names.end(), env.character) != names.end(), "env.character",
+            "expected one of " + known + ", got '" + env.character + "'");
+    }
     // Every real-valued field must be finite (a JSON literal such as 1e999 reads as +inf).
     const std::pair<const char*, double> reals[] = {
         {"run.minutes", run.minutes},

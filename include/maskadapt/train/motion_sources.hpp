@@ -5,11 +5,9 @@
 /// the 4 preceding reference frames as discriminator history) and the discriminator's real
 /// window sampler from it.
 #include <maskadapt/core/error.hpp>
-#include <maskadapt/g1/clip.hpp>
-#include <maskadapt/g1/retarget.hpp>
-#include <maskadapt/g1/skeleton.hpp>
 #include <maskadapt/motion/library.hpp>
 #include <maskadapt/humanoid/synthetic.hpp>
+#include <maskadapt/sim/mujoco/character.hpp>
 #include <maskadapt/tasks/imitation.hpp>
 #include <maskadapt/train/base_trainer.hpp>
 
@@ -28,28 +26,19 @@ namespace maskadapt::train {
 /// a directory (all .bvh/.npz files in it, sorted) or one clip file. Throws naming the source
 /// when nothing can be loaded.
 ///
-/// `character` "g1" (sim/mujoco/character.hpp's names) gives a library on `g1::g1_skeleton()`:
-/// every humanoid clip the sources name is retargeted onto the robot (g1/retarget.hpp, default
-/// options: 0.2 s per 6-s clip), and G1 clip files (`maskadapt motion import --character g1`,
-/// format maskadapt.g1clip.v1) are taken as they are.
+/// On another character (`character`, sim/mujoco/character.hpp) the library holds that
+/// character's clips: every humanoid clip the sources name goes through
+/// `character.from_humanoid` (the G1: retargeted, 0.2 s per 6-s clip), and a file in the
+/// character's own format (`character.read_own_clip`; the G1's: `maskadapt motion import
+/// --character g1`) is taken as it is.
 inline std::shared_ptr<MotionLibrary> load_motion_library(const std::vector<std::string>& sources,
                                                           const std::string& data_dir = motion_data_dir(),
-                                                          const std::string& character = "humanoid") {
-  require(character == "humanoid" || character == "g1",
-          "character must be one of humanoid, g1, got '" + character + "'", {{}, std::nullopt, "env.character"});
-  const bool g1 = character == "g1";
-  auto lib = std::make_shared<MotionLibrary>(g1 ? g1::g1_skeleton() : humanoid_skeleton());
-  auto add = [&](MotionClip c) {
-    if (!g1) {
-      lib->add(std::move(c));
-      return;
-    }
-    MotionClip r = g1::to_motion_clip(g1::retarget_to_g1(c));
-    r.labels = c.labels;  // (what the clip shows does not change with the character)
-    lib->add(std::move(r));
-  };
+                                                          const MujocoCharacter& character = mujoco_character("humanoid")) {
+  auto lib = std::make_shared<MotionLibrary>(character.skeleton);
+  auto add = [&](MotionClip c) { lib->add(character.from_humanoid ? character.from_humanoid(c) : std::move(c)); };
   auto add_file = [&](const std::string& path) {
-    if (g1 && g1::is_g1_clip_file(path)) lib->add(g1::to_motion_clip(g1::load_g1_clip(path)));
+    std::optional<MotionClip> own = character.read_own_clip ? character.read_own_clip(path) : std::nullopt;
+    if (own) lib->add(std::move(*own));
     else add(import_motion(path));
   };
   for (const auto& src : sources) {

@@ -17,15 +17,21 @@
 ///
 /// This header does not include MuJoCo itself.
 #include <maskadapt/core/error.hpp>
+#include <maskadapt/g1/clip.hpp>
 #include <maskadapt/g1/description.hpp>
 #include <maskadapt/g1/mjcf.hpp>
+#include <maskadapt/g1/retarget.hpp>
 #include <maskadapt/g1/skeleton.hpp>
 #include <maskadapt/humanoid/description.hpp>
 #include <maskadapt/humanoid/mjcf.hpp>
+#include <maskadapt/motion/clip.hpp>
 #include <maskadapt/motion/geom.hpp>
 #include <maskadapt/motion/skeleton.hpp>
+#include <maskadapt/sim/mujoco/character_names.hpp>
 #include <maskadapt/sim/termination.hpp>
 
+#include <functional>
+#include <optional>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -50,6 +56,12 @@ struct MujocoCharacter {
   std::vector<std::string> ground_contacts;  ///< bodies that may touch the ground without a fall
   std::string head;                        ///< body whose height ends an episode when too low
   std::vector<std::string> hands;          ///< bodies that strike (tasks/strike.hpp) and carry the hands
+  /// How a clip of the reference humanoid (what BVH, AMASS and the built-in sets import as) becomes
+  /// this character's clip; empty for the humanoid itself. The G1: g1::retarget_to_g1.
+  std::function<MotionClip(const MotionClip&)> from_humanoid;
+  /// Reads a clip file in the character's own format, or returns nothing when `path` is not one
+  /// (then the file is imported as a humanoid clip and converted by `from_humanoid`).
+  std::function<std::optional<MotionClip>(const std::string& path)> read_own_clip;
 
   double control_dt() const { return physics_dt * substeps; }
   /// `CharacterGeometry` (motion/geometry.hpp).
@@ -127,18 +139,21 @@ inline MujocoCharacter mujoco_character(const g1::G1Description& d) {
   c.ground_contacts = {"left_ankle_roll_link", "right_ankle_roll_link", "left_wrist_yaw_link", "right_wrist_yaw_link"};
   c.head = d.links[static_cast<std::size_t>(d.head_link)].name;
   c.hands = {"left_wrist_yaw_link", "right_wrist_yaw_link"};
+  c.from_humanoid = [d](const MotionClip& humanoid_clip) {
+    MotionClip r = g1::to_motion_clip(g1::retarget_to_g1(humanoid_clip, {}, nullptr, d));
+    r.labels = humanoid_clip.labels;  // (what the clip shows does not change with the character)
+    return r;
+  };
+  c.read_own_clip = [](const std::string& path) -> std::optional<MotionClip> {
+    if (!g1::is_g1_clip_file(path)) return std::nullopt;
+    return g1::to_motion_clip(g1::load_g1_clip(path));
+  };
   c.validate();
   return c;
 }
 
-/// Names `mujoco_character` knows.
-inline const std::vector<std::string>& character_names() {
-  static const std::vector<std::string> names = {"humanoid", "g1"};
-  return names;
-}
-
 /// A bundled character by name; `field` names where the name came from (a flag, a config field)
-/// in the error for an unknown one.
+/// in the error for an unknown one. A new character adds its name here and in character_names.hpp.
 inline const MujocoCharacter& mujoco_character(std::string_view name, const std::string& field = "character") {
   if (name == "humanoid") {
     static const MujocoCharacter c = mujoco_character(humanoid_description());
