@@ -15,7 +15,7 @@
 # and, from models/ with the built `maskadapt` (MASKADAPT_CLI), shipped_walker.png (SHIPPED_T, default 2 s)
 # and fig5c_viewer_{before,after}.png (models/table2/sneak_ours_s1.bin, mask switched at 3 s), and
 # generator_switch_{walk,wave}.png (models/text_generator.bin, "0:walk,2:wave right hand" from a
-# Bandai walk in $MASKADAPT_DATA_DIR), and g1_walker.png (models/g1_walk_bandai.bin, G1_T default 3 s).
+# Bandai walk in $MASKADAPT_DATA_DIR), and g1_walker.png (models/g1_mask_mi_walk_bandai.bin, G1_T default 3 s).
 # Times: WALK_T (default 0.6 s: the short CPU-trained bases fall after ≈1 s), SWITCH_T (the switch, default 5 s; pictures at SWITCH_T − 1 s and
 # SWITCH_T + 1.5 s), TRACK_T (default 0.6 s, before the fall).
 set -uo pipefail
@@ -153,12 +153,12 @@ if have "$repo/models/text_generator.bin" "$cli" "$walk" &&
   take generator_switch_wave.png --rollout "$rollout" --label "models/text_generator.bin: 'wave right hand' from 2 s (3.5 s)" --time 3.5
 fi
 
-# (h) the second character (issue 18): the G1-like robot's AMP walker, 10 s of `play
-# --deterministic` from seed 1 (the viewer draws the robot's 30 links from the rollout).
+# (h) the second character (issue 18): the G1-like robot's mask-invariant walker with both legs
+# masked, 10 s of `play --deterministic` from seed 1 (the viewer draws the robot's 30 links).
 picture=g1_walker.png
-if have "$repo/models/g1_walk_bandai.bin" "$cli" &&
-   rollout_of g1_walker play models/g1_walk_bandai.bin --deterministic --seconds 10 --seed 1; then
-  take "$picture" --rollout "$rollout" --label "models/g1_walk_bandai.bin (the G1-like robot), play --deterministic --seed 1" \
+if have "$repo/models/g1_mask_mi_walk_bandai.bin" "$cli" &&
+   rollout_of g1_walker play models/g1_mask_mi_walk_bandai.bin --mask left_leg,right_leg --deterministic --seconds 10 --seed 1; then
+  take "$picture" --rollout "$rollout" --label "models/g1_mask_mi_walk_bandai.bin (the G1-like robot), both legs masked, play --deterministic --seed 1" \
     --time "${G1_T:-3}"
 fi
 

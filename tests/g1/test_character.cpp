@@ -1,15 +1,23 @@
 // The G1-like robot through the simulator concept (issue 18, parts 1 and 5): MujocoHumanoidSim
 // runs any MujocoCharacter — the robot stands in its nominal pose under PD without a fall, a reset
 // to a retargeted frame places every link where forward kinematics puts it, save/load of an env
-// is bit-exact — and a character whose MJCF disagrees with its skeleton is refused by name.
+// is bit-exact — and a character whose MJCF disagrees with its skeleton is refused by name; the
+// shipped G1 walkers load and walk.
 #include <maskadapt/g1/retarget.hpp>
 #include <maskadapt/humanoid/synthetic.hpp>
 #include <maskadapt/motion/library.hpp>
 #include <maskadapt/sim/mujoco/humanoid_sim.hpp>
 #include <maskadapt/sim/termination.hpp>
+#include <maskadapt/train/base_policy.hpp>
+#include <maskadapt/train/motion_sources.hpp>
+#include <maskadapt/train/play.hpp>
+#include <maskadapt/train/policy_export.hpp>
 
 #include <gtest/gtest.h>
 
+#include <cmath>
+#include <filesystem>
+#include <iostream>
 #include <string>
 
 using namespace maskadapt;
@@ -112,4 +120,46 @@ TEST(G1Character, TheHumanoidCharacterIsTheDescriptionsModel) {
     by_character.step(u);
   }
   EXPECT_EQ(by_desc.save_state(0), by_character.save_state(0));
+}
+
+// The robot's shipped walkers (models/README.md): policy-only exports on the robot's dims that say
+// how they were trained, and that walk 10 s on the simulated robot from a real walk's frames.
+TEST(ShippedG1Models, WalkTenSecondsOnTheRobot) {
+  const std::string data = motion_data_dir(MASKADAPT_DEFAULT_DATA_DIR);
+  const std::string walk = data + "/motions/bandai/locomotion/dataset-1_walk_normal_001.bvh";
+  struct Model {
+    const char* file;
+    long long iteration;
+    bool masked;
+    const char* mask;  ///< the mask it walks with
+  };
+  for (const Model m : {Model{"g1_amp_walk_bandai.bin", 5969, false, "none"},
+                        Model{"g1_mask_mi_walk_bandai.bin", 7470, true, "left_leg,right_leg"}}) {
+    const std::string path = std::string(MASKADAPT_SOURCE_DIR "/models/") + m.file;
+    const Checkpoint c = load_checkpoint(path);
+    ASSERT_TRUE(train::is_policy_export(c)) << path;
+    EXPECT_EQ(train::checkpoint_character(c), "g1") << path;
+    const Skeleton& skel = robot().skeleton;
+    const Index d = observation_dim(skel);
+    const train::LoadedBasePolicy base = train::load_base_policy(c, {d, d + kNumParts, 29, d * kAmpWindowFrames}, path);
+    EXPECT_EQ(c.get_int("trainer/iteration"), m.iteration) << path;
+    EXPECT_EQ(base.config.env.motions, std::vector<std::string>{"bandai-walk"}) << path;
+    EXPECT_EQ(base.config.mask.prob > 0, m.masked) << path;
+    EXPECT_NE(train::export_provenance(c).note.find("--character g1"), std::string::npos) << path;
+    if (!std::filesystem::exists(walk)) {
+      std::cout << "ShippedG1Models: the rollout needs the shared Bandai walks (MASKADAPT_DATA_DIR); skipped\n";
+      continue;
+    }
+    auto lib = train::load_motion_library({walk}, data, robot());
+    MujocoHumanoidSim sim(1, 1, robot());
+    train::PlayOptions opt;
+    opt.seconds = 10;
+    opt.deterministic = true;
+    opt.masks = MaskSampler::fixed(PartMask::parse(m.mask));
+    const train::PlayResult r = train::play_base_policy(sim, base.policy, train::library_reset_sampler(lib), opt,
+                                                        eval::make_rollout(robot()), robot().fall_criteria(0.3), 0.3);
+    const Vec3 moved = r.root.col(r.root.cols() - 1) - r.root.col(0);
+    EXPECT_TRUE(r.fall_times.empty()) << path << ", mask " << m.mask << ": fell at " << r.fall_times.front() << " s";
+    EXPECT_GT(std::hypot(moved.x(), moved.y()), 3.0) << path << ": metres walked in 10 s, mask " << m.mask;
+  }
 }
