@@ -1,8 +1,9 @@
 // The training snapshots committed under models/training/ (models/README.md): compacted base-
 // training checkpoints (`maskadapt checkpoint compact`) that a later session continues with
 // `train-base --resume`. Each must load with its checksum verified, have no replay buffer, and
-// resume with today's code on the MuJoCo humanoid: one iteration runs, moves the policy and
-// refills the replay buffer. Needs the motions the run trained on (skips without them).
+// resume with today's code on its character in MuJoCo (the humanoid, or the G1-like robot for a
+// run with env.character "g1"): one iteration runs, moves the policy and refills the replay
+// buffer. Needs the motions the run trained on (skips without them).
 #include "../motion/test_util.hpp"
 
 #include <maskadapt/sim/mujoco/humanoid_sim.hpp>
@@ -33,7 +34,7 @@ std::vector<std::string> committed_snapshots() {
 
 }  // namespace
 
-TEST(TrainingSnapshots, EachCommittedSnapshotResumesOnTheHumanoid) {
+TEST(TrainingSnapshots, EachCommittedSnapshotResumesOnItsCharacter) {
   const auto snapshots = committed_snapshots();
   if (snapshots.empty()) GTEST_SKIP() << "no models/training/*.ckpt";
   MASKADAPT_REQUIRE_MOTIONS(bandai, "bandai");
@@ -45,10 +46,12 @@ TEST(TrainingSnapshots, EachCommittedSnapshotResumesOnTheHumanoid) {
     EXPECT_NE(c.get_string("provenance/history").find("train-base"), std::string::npos);
     BaseTrainConfig cfg = config_from_string(c.get_string("config"), path + " (config)");
     cfg.run.threads = 1;
-    auto lib = load_motion_library(cfg.env.motions, test::data_base_dir());
+    const MujocoCharacter& character = mujoco_character(cfg.env.character, path + " (env.character)");
+    auto lib = load_motion_library(cfg.env.motions, test::data_base_dir(), character);
     ThreadPool pool(1);
-    MujocoHumanoidSim sim(static_cast<std::size_t>(cfg.env.num_envs), pool);
-    BaseTrainer<MujocoHumanoidSim> trainer(sim, library_reset_sampler(lib), library_window_sampler(lib, &pool), cfg, &pool);
+    MujocoHumanoidSim sim(static_cast<std::size_t>(cfg.env.num_envs), pool, character);
+    BaseTrainer<MujocoHumanoidSim> trainer(sim, library_reset_sampler(lib), library_window_sampler(lib, &pool), cfg, &pool,
+                                           character.fall_criteria(cfg.env.termination_height));
     trainer.load(c);
     const long long it = trainer.iteration();
     const VectorXf before = c.get_vector<float>("actor/params");
