@@ -107,11 +107,13 @@ inline G1Clip load_g1_clip(const std::string& path) { return g1_clip_from_archiv
 
 /// Whether `path` is a G1 clip file (an .npz whose `format` is maskadapt.g1clip.v1); false for
 /// any other file, readable or not.
+inline bool is_g1_clip_archive(const npz::Archive& a) {
+  const auto it = a.find("format");
+  return it != a.end() && !it->second.numeric && it->second.text == "maskadapt.g1clip.v1";
+}
 inline bool is_g1_clip_file(const std::string& path) {
   try {
-    const npz::Archive a = npz::read(path);
-    const auto it = a.find("format");
-    return it != a.end() && !it->second.numeric && it->second.text == "maskadapt.g1clip.v1";
+    return is_g1_clip_archive(npz::read(path));
   } catch (const Error&) {
     return false;
   }

@@ -30,6 +30,7 @@
 #include <maskadapt/sim/mujoco/character_names.hpp>
 #include <maskadapt/sim/termination.hpp>
 
+#include <filesystem>
 #include <functional>
 #include <optional>
 #include <string>
@@ -145,8 +146,16 @@ inline MujocoCharacter mujoco_character(const g1::G1Description& d) {
     return r;
   };
   c.read_own_clip = [](const std::string& path) -> std::optional<MotionClip> {
-    if (!g1::is_g1_clip_file(path)) return std::nullopt;
-    return g1::to_motion_clip(g1::load_g1_clip(path));
+    // (one read: an .npz that is not a G1 clip goes on to import_motion, which reports its errors)
+    if (std::filesystem::path(path).extension() != ".npz") return std::nullopt;
+    npz::Archive a;
+    try {
+      a = npz::read(path);
+    } catch (const Error&) {
+      return std::nullopt;
+    }
+    if (!g1::is_g1_clip_archive(a)) return std::nullopt;
+    return g1::to_motion_clip(g1::g1_clip_from_archive(a, path));
   };
   c.validate();
   return c;
