@@ -56,13 +56,7 @@ void run_train_base(const TrainBaseArgs& a) {
   BaseTrainConfig cfg = a.preset.empty() ? cpu_preset() : preset(a.preset, "--preset");
   std::unique_ptr<Checkpoint> resume;
   if (!a.resume.empty()) {
-    if (world.distributed()) {
-      Bytes bytes = world.is_root() ? serialize_checkpoint(load_checkpoint(a.resume)) : Bytes{};
-      world.broadcast(bytes, 0);
-      resume = std::make_unique<Checkpoint>(parse_checkpoint(bytes, a.resume));
-    } else {
-      resume = std::make_unique<Checkpoint>(load_checkpoint(a.resume));
-    }
+    resume = std::make_unique<Checkpoint>(load_checkpoint_on_every_rank(world, a.resume));
     cfg = config_from_string(resume->get_string("config"), a.resume + " (config)");
   }
   const std::uint64_t checkpoint_seed = cfg.run.seed;

@@ -9,6 +9,7 @@
 
 #include <maskadapt/core/blas_threads.hpp>
 #include <maskadapt/core/checkpoint.hpp>
+#include <maskadapt/core/collective.hpp>
 #include <maskadapt/eval/rollout_file.hpp>
 #include <maskadapt/motion/bvh.hpp>
 #include <maskadapt/humanoid/synthetic.hpp>
@@ -37,6 +38,7 @@
 #include <iostream>
 #include <limits>
 #include <memory>
+#include <sstream>
 
 namespace {
 
@@ -103,22 +105,27 @@ std::vector<BoxObject> task_objects(const std::string& task) {
 
 #ifdef MASKADAPT_HAS_MUJOCO
 /// The goal task of a run (tasks/location.hpp, heading.hpp, strike.hpp; their defaults), for
-/// `sim`'s envs; `seed` seeds its goal streams. Strike bodies: the hands.
-tasks::AnyGoalTask<MujocoHumanoidSim> make_goal_task(const std::string& task, const MujocoHumanoidSim& sim, std::uint64_t seed) {
+/// `sim`'s envs; `seed` seeds its goal streams, env e drawing from that of env first_env + e (a
+/// distributed run's rank offset). Strike bodies: the hands.
+tasks::AnyGoalTask<MujocoHumanoidSim> make_goal_task(const std::string& task, const MujocoHumanoidSim& sim, std::uint64_t seed,
+                                                     Index first_env = 0) {
   const auto N = static_cast<Index>(sim.num_envs());
   if (task == "location") {
     tasks::LocationConfig lc;
     lc.seed = seed;
+    lc.first_env = first_env;
     return tasks::LocationTask(lc, N);
   }
   if (task == "heading") {
     tasks::HeadingConfig hc;
     hc.seed = seed;
+    hc.first_env = first_env;
     return tasks::HeadingTask(hc, N);
   }
   require(task == "strike" && sim.num_objects() == 1, "no goal task '" + task + "' for this scene", {{}, {}, "--task"});
   tasks::StrikeConfig sc;
   sc.seed = seed;
+  sc.first_env = first_env;
   sc.box_half_height = sim.objects().front().half_size.z();
   sc.strike_bodies = tasks::bodies_by_name(sim.skeleton(), sim.character().hands);
   return tasks::StrikeTask(sc, N);
@@ -170,16 +177,17 @@ ResidualSetup<Sim> make_setup(const ResidualTrainConfig& c, const std::shared_pt
 
 #ifdef MASKADAPT_HAS_MUJOCO
 /// The tracking objective: goal-buffer refills from the generator with prompts from `texts`,
-/// histories from the base motion set.
+/// histories from the base motion set; `stream` picks the goal stream (a distributed run's rank).
 tasks::TrackingTask make_tracking(const ResidualTrainConfig& c, std::shared_ptr<tracking::BuiltinGenerator> gen,
                                   std::shared_ptr<MotionLibrary> base_lib, std::vector<std::string> texts,
-                                  const MujocoHumanoidSim& sim) {
+                                  const MujocoHumanoidSim& sim, std::uint64_t stream) {
   const double control_dt = sim.control_dt();
   tasks::TrackingTaskConfig t;
   t.designated = PartMask::parse(c.designated, "--designated");
   t.goal_steps = c.goal_steps;
   t.sample_every = c.sample_every;
   t.seed = c.rl.run.seed;
+  t.stream = stream;
   t.term_window = std::max<Index>(1, std::llround(c.term_window_s / control_dt));
   t.term_threshold = c.term_threshold;
   const Index frames = std::llround(c.rl.env.episode_seconds / control_dt) + c.goal_steps + 1;
@@ -200,11 +208,16 @@ void run_train_residual(const Args& a) {
   (void)a;
   throw Error("this build has no MuJoCo; train-residual needs the maskadapt::mujoco target", {{}, std::nullopt, "train-residual"});
 #else
+  // Under mpirun every rank runs this with the same arguments; rank 0 reads the checkpoints and
+  // sends them to the others, and only rank 0 prints and writes files (docs/distributed.md).
+  Collective& world = maskadapt::world();
+  std::ostringstream quiet;
+  std::ostream& out = world.is_root() ? std::cout : quiet;
   ResidualTrainConfig c;
   std::unique_ptr<Checkpoint> resume;
   std::unique_ptr<Checkpoint> base_file;  // --base, read once: its config here, its actor below
   if (!a.resume.empty()) {  // the run's own config; only budgets and the output directory may change
-    resume = std::make_unique<Checkpoint>(load_checkpoint(a.resume));
+    resume = std::make_unique<Checkpoint>(load_checkpoint_on_every_rank(world, a.resume));
     require(!resume->contains("model/kind"),
             "a policy-only model file cannot be resumed (it has no critic, discriminator or optimiser state); resume from the "
             "run's checkpoint.bin",
@@ -236,7 +249,7 @@ void run_train_residual(const Args& a) {
     require(c.method == "scratch" || !a.base.empty(), "a base checkpoint is needed (or --method scratch)", {{}, {}, "--base"});
     if (c.method != "scratch") {
       // The frozen base's architecture and, unless --motions, its motion set A come from its checkpoint.
-      base_file = std::make_unique<Checkpoint>(load_checkpoint(a.base));
+      base_file = std::make_unique<Checkpoint>(load_checkpoint_on_every_rank(world, a.base));
       require(!base_file->contains("residual_config"),
               "a stage-2 (train-residual) checkpoint or export; --base takes a stage-1 checkpoint (train-base output) or its export",
               {a.base, std::nullopt, "residual_config"});
@@ -279,8 +292,15 @@ void run_train_residual(const Args& a) {
   auto base_lib = load_motion_library(c.rl.env.motions, data_dir(), character);
   std::shared_ptr<MotionLibrary> new_lib =
       c.task != "tracking" && !c.new_motions.empty() ? load_motion_library(c.new_motions, data_dir(), character) : base_lib;
+  if (world.distributed())
+    require(c.rl.env.num_envs % world.size() == 0,
+            std::to_string(c.rl.env.num_envs) + " envs do not split evenly over " + std::to_string(world.size()) +
+                " ranks (each rank steps env.num_envs / ranks of them); choose --envs as a multiple of the rank count",
+            {{}, std::nullopt, "--envs"});
+  const auto envs_here = static_cast<std::size_t>(c.rl.env.num_envs / world.size());
+  const Index first_env = static_cast<Index>(envs_here) * world.rank();
   ThreadPool pool(static_cast<std::size_t>(c.rl.run.threads));
-  MujocoHumanoidSim sim(static_cast<std::size_t>(c.rl.env.num_envs), pool, character, task_objects(c.task));
+  MujocoHumanoidSim sim(envs_here, pool, character, task_objects(c.task));
   const Index obs_dim = observation_dim(sim.skeleton()), A = sim.skeleton().num_dofs();
   // The frozen base and its action space (PD target = offset + scale ⊙ â). Resume: placeholders,
   // replaced by the checkpoint's base/ sections (action space included) in trainer.load. Scratch:
@@ -298,42 +318,47 @@ void run_train_residual(const Args& a) {
     std::vector<std::string> texts = !c.texts.empty()           ? c.texts
                                      : !gen->arms_pool().empty() ? gen->arms_pool()
                                                                  : default_text_pool(sim.skeleton());
-    std::cout << "train-residual: text pool (" << texts.size() << "):";
-    for (const auto& t : texts) std::cout << " '" << t << "'";
-    std::cout << "\n";
-    setup.goal = make_tracking(c, gen, base_lib, texts, sim);
+    out << "train-residual: text pool (" << texts.size() << "):";
+    for (const auto& t : texts) out << " '" << t << "'";
+    out << "\n";
+    setup.goal = make_tracking(c, gen, base_lib, texts, sim, static_cast<std::uint64_t>(world.rank()));
     setup.goal_weight = c.objective_weights.size() > 1 ? c.objective_weights[1] : 0.5;
   }
   if (is_goal_task(c.task)) {
-    setup.goal = make_goal_task(c.task, sim, c.rl.run.seed);
+    setup.goal = make_goal_task(c.task, sim, c.rl.run.seed, first_env);
     setup.goal_weight = c.objective_weights.empty() ? 0.5 : c.objective_weights.back();
   }
-  std::cout << "train-residual: " << character.name << ", task " << c.task << ", method " << c.method << ", masks";
-  for (const auto& m : setup.masks) std::cout << " " << m.to_string();
-  if (!c.goal_parts.empty()) std::cout << " (and for the goal " << PartMask::parse(c.goal_parts).to_string() << ")";
-  std::cout << ", " << setup.discriminators.size() << " discriminator(s), out " << c.rl.run.out_dir
-            << ", BLAS kernel " << blas_core_name() << "\n";
+  out << "train-residual: " << character.name << ", task " << c.task << ", method " << c.method << ", masks";
+  for (const auto& m : setup.masks) out << " " << m.to_string();
+  if (!c.goal_parts.empty()) out << " (and for the goal " << PartMask::parse(c.goal_parts).to_string() << ")";
+  out << ", " << setup.discriminators.size() << " discriminator(s), out " << c.rl.run.out_dir << ", BLAS kernel "
+      << blas_core_name()
+      << (world.distributed() ? ", " + std::to_string(world.size()) + " ranks x " + std::to_string(envs_here) + " envs" : std::string())
+      << "\n";
   // the policy on the frozen base: the residual (ours, cml, scratch) or AdaptNet
   auto train = [&]<class Policy>() {
     ResidualTrainer<MujocoHumanoidSim, Policy> trainer(sim, library_reset_sampler(base_lib), std::move(base), std::move(setup), c,
-                                                       &pool, character.fall_criteria(c.rl.env.termination_height));
+                                                       &pool, character.fall_criteria(c.rl.env.termination_height), &world);
     if (resume) {
       trainer.load(*resume);
-      std::cout << "train-residual: resumed at iteration " << trainer.iteration() << " from " << a.resume << "\n";
+      out << "train-residual: resumed at iteration " << trainer.iteration() << " from " << a.resume << "\n";
     }
-    trainer.add_provenance(cli::provenance_line() + (resume ? " (resumed at iteration " + std::to_string(trainer.iteration()) +
-                                                                  ", sample " + std::to_string(trainer.samples()) + ")"
-                                                            : std::string()));
-    std::cout << "train-residual: " << describe_actions(trainer.policy().actions(), c.rl.net) << "\n";
-    std::filesystem::create_directories(c.rl.run.out_dir);
-    std::ofstream(c.rl.run.out_dir + "/residual_config.json") << to_json(c).dump(2) << "\n";
+    trainer.add_provenance(cli::provenance_line() +
+                           (world.distributed() ? " (" + std::to_string(world.size()) + " MPI ranks)" : std::string()) +
+                           (resume ? " (resumed at iteration " + std::to_string(trainer.iteration()) + ", sample " +
+                                         std::to_string(trainer.samples()) + ")"
+                                   : std::string()));
+    out << "train-residual: " << describe_actions(trainer.policy().actions(), c.rl.net) << "\n";
+    if (world.is_root()) {
+      std::filesystem::create_directories(c.rl.run.out_dir);
+      std::ofstream(c.rl.run.out_dir + "/residual_config.json") << to_json(c).dump(2) << "\n";
+    }
     run_training(trainer, RunOptions{static_cast<bool>(resume), &std::cout, cli::stop_training_on_signals()});
-    std::cout << "train-residual: done, " << trainer.iteration() << " iterations; checkpoint " << c.rl.run.out_dir
-              << "/checkpoint.bin";
+    out << "train-residual: done, " << trainer.iteration() << " iterations; checkpoint " << c.rl.run.out_dir << "/checkpoint.bin";
     // (a resume that ran no iteration has no last reward to report)
     if (trainer.goal_task() && std::isfinite(trainer.last_goal_reward()))
-      std::cout << "; last " << c.task << " reward " << trainer.last_goal_reward();
-    std::cout << "\n";
+      out << "; last " << c.task << " reward " << trainer.last_goal_reward();
+    out << "\n";
   };
   if (c.method == "adaptnet") train.template operator()<adapt::AdaptNetPolicy<float>>();
   else train.template operator()<adapt::ResidualPolicy<float>>();

@@ -45,9 +45,9 @@ int main(int argc, char** argv) {
   } restore_world;
 #endif
   maskadapt::Collective& world = maskadapt::world();
-  if (world.distributed() && (argc < 2 || std::string(argv[1]) != "train-base")) {
+  if (world.distributed() && (argc < 2 || (std::string(argv[1]) != "train-base" && std::string(argv[1]) != "train-residual"))) {
     if (world.is_root())
-      std::cerr << "maskadapt: error: " << world.size() << " ranks: only `train-base` runs distributed (under mpirun); start the "
+      std::cerr << "maskadapt: error: " << world.size() << " ranks: only `train-base` and `train-residual` run distributed (under mpirun); start the "
                 << (argc >= 2 ? "`" + std::string(argv[1]) + "` command" : std::string("other commands")) << " without mpirun\n";
     return 2;
   }

@@ -1,5 +1,6 @@
 # mpi.rank_failure: a rank dies after a checkpoint -> the job stops with a message naming the
-# rank; a rank aborts on an error -> likewise; the checkpoint still loads and resumes on 2 ranks.
+# rank; a rank aborts on an error -> likewise; the checkpoint still loads and resumes on 2 ranks;
+# a rank killed during a stage-2 run, and its checkpoint resumed (bit-exact with an uninterrupted run).
 # -DMPIEXEC=… -DFLAGS=… -DTESTS=<maskadapt_tests_mpi> -DOUT=<dir>
 file(REMOVE_RECURSE "${OUT}")
 file(MAKE_DIRECTORY "${OUT}")
@@ -30,4 +31,16 @@ run_ranks(RankFailure.TheLastCheckpointResumes out rc)
 message(STATUS "resume: exit ${rc}\n${out}")
 if(NOT rc EQUAL 0)
   message(FATAL_ERROR "the checkpoint written before the failure did not resume")
+endif()
+
+# the same for a stage-2 (train-residual) run
+run_ranks(ResidualRankFailure.KillRankOneAfterACheckpoint out rc)
+message(STATUS "killed rank, stage 2: exit ${rc}\n${out}")
+if(rc EQUAL 0 OR NOT out MATCHES "rank 1")
+  message(FATAL_ERROR "the stage-2 job went on after rank 1 died, or the message does not name rank 1")
+endif()
+run_ranks(ResidualRankFailure.TheLastCheckpointResumes out rc)
+message(STATUS "resume, stage 2: exit ${rc}\n${out}")
+if(NOT rc EQUAL 0)
+  message(FATAL_ERROR "the stage-2 checkpoint written before the failure did not resume")
 endif()

@@ -5,6 +5,7 @@
 // rank_failure.cmake (a rank killed / aborting), not from the mpi.trainer entry.
 #include "../train/tiny_sim.hpp"
 #include "../train/trainer_test_helpers.hpp"
+#include "mpi_test_helpers.hpp"
 
 #include <maskadapt/core/collective.hpp>
 #include <maskadapt/train/base_trainer.hpp>
@@ -21,6 +22,7 @@
 using namespace maskadapt;
 using namespace maskadapt::train;
 using maskadapt::testing::expect_bit_identical;
+using maskadapt::testing::on_every_rank;
 using maskadapt::testing::TinyWalkerSim;
 using maskadapt::testing::upright;
 
@@ -66,13 +68,6 @@ Checkpoint snapshot(const BaseTrainer<TinyWalkerSim>& t) {
   Checkpoint c;
   t.save(c);
   return c;
-}
-
-/// Rank 0's checkpoint on every rank (what resuming from the file rank 0 wrote amounts to).
-Checkpoint on_every_rank(const Checkpoint& c) {
-  Bytes b = world().is_root() ? serialize_checkpoint(c) : Bytes{};
-  world().broadcast(b, 0);
-  return parse_checkpoint(b, "rank 0's checkpoint");
 }
 
 double max_abs_diff(const VectorXf& a, const VectorXf& b) {
@@ -204,12 +199,7 @@ TEST(DistributedTrainer, ACheckpointOfAnotherRankCountIsRefused) {
 
 // ---- run by rank_failure.cmake (MASKADAPT_MPI_FAULT_DIR set) ----------------------------------
 
-namespace {
-std::string fault_dir() {
-  const char* d = std::getenv("MASKADAPT_MPI_FAULT_DIR");
-  return d ? d : "";
-}
-}  // namespace
+using maskadapt::testing::fault_dir;
 
 // Rank 1 dies (SIGKILL) after the iteration-2 checkpoint, while rank 0 goes on: the launcher
 // stops the job and names the rank; the checkpoint stays.

@@ -64,3 +64,36 @@ TEST(PopArt, RejectsBadInput) {
   Mlp<float> net(MlpSpec{2, {}, 2});
   EXPECT_THROW(p.update(Eigen::MatrixXf::Zero(3, 3), net), Error);
 }
+
+// The update from a batch's moments (what a distributed trainer forms from all ranks' sums) is
+// the update from the batch: two halves' Σy and Σy² over the whole count give the same statistics
+// and the same rescaled last layer, to rounding; bad moments are refused naming the field.
+TEST(PopArt, UpdateFromMomentsIsTheUpdateFromTheBatch) {
+  Rng rng(5);
+  Mlp<double> net_a(MlpSpec{3, {6}, 2, Activation::Tanh}, rng);
+  Mlp<double> net_b = net_a;
+  PopArt<double> a(2, 0.25), b(2, 0.25);
+  Eigen::MatrixXd y(2, 40);
+  for (Index j = 0; j < y.cols(); ++j) {
+    y(0, j) = 50.0 + 10.0 * rng.normal();
+    y(1, j) = -3.0 + 0.5 * rng.normal();
+  }
+  a.update(y, net_a);
+  // two "ranks" of 20 samples each: sums added, divided by the total count
+  const Eigen::VectorXd s1 = y.leftCols(20).rowwise().sum() + y.rightCols(20).rowwise().sum();
+  const Eigen::VectorXd s2 = y.leftCols(20).array().square().rowwise().sum().matrix() + y.rightCols(20).array().square().rowwise().sum().matrix();
+  b.update_from_moments(s1 / 40.0, s2 / 40.0, net_b);
+  EXPECT_LT((a.mean() - b.mean()).cwiseAbs().maxCoeff(), 1e-12);
+  EXPECT_LT((a.second_moment() - b.second_moment()).cwiseAbs().maxCoeff(), 1e-9);
+  EXPECT_LT((net_a.params() - net_b.params()).cwiseAbs().maxCoeff(), 1e-12);
+  EXPECT_GT((a.mean() - Eigen::VectorXd::Zero(2)).cwiseAbs().maxCoeff(), 1.0);  // the statistics moved
+  Eigen::VectorXd bad = s1 / 40.0;
+  bad[1] = NAN;
+  try {
+    b.update_from_moments(bad, s2 / 40.0, net_b);
+    ADD_FAILURE() << "expected an error";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("batch_mean"), std::string::npos) << e.what();
+  }
+  EXPECT_THROW(b.update_from_moments(Eigen::VectorXd::Zero(3), Eigen::VectorXd::Ones(3), net_b), Error);
+}

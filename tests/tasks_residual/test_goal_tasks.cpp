@@ -3,6 +3,7 @@
 // the tiny analytic simulator; the type-erased task is a value.
 #include "../train/tiny_sim.hpp"
 
+#include <maskadapt/tasks/composition.hpp>
 #include <maskadapt/tasks/goal_task.hpp>
 #include <maskadapt/tasks/heading.hpp>
 #include <maskadapt/tasks/location.hpp>
@@ -291,4 +292,49 @@ TEST(GoalTask, SaveAndLoadRestoreGoalsAndStreams) {
     }
   tasks::HeadingTask wrong(c, 3);  // another env count: refused, naming the section
   EXPECT_THROW(wrong.load(ck, "g/"), Error);
+}
+
+// ---- distributed runs: a rank's envs draw the streams of their global indices --------------
+
+// A task built for envs [2, 4) of a run (first_env = 2) draws, for its envs 0 and 1, what a task
+// of all 4 envs draws for envs 2 and 3 (train/distributed.hpp): location targets, heading
+// directions, episode masks.
+TEST(GoalTasks, FirstEnvGivesARanksEnvsTheirOneProcessStreams) {
+  TinyWalkerSim all(4), part(2);
+  for (std::size_t e = 0; e < 4; ++e) all.reset(e, KinematicState::zero(all.skeleton()));
+  for (std::size_t e = 0; e < 2; ++e) part.reset(e, KinematicState::zero(part.skeleton()));
+  tasks::LocationConfig lc;
+  lc.seed = 3;
+  tasks::LocationTask loc_all(lc, 4);
+  lc.first_env = 2;
+  tasks::LocationTask loc_part(lc, 2);
+  tasks::HeadingConfig hc;
+  hc.seed = 4;
+  tasks::HeadingTask head_all(hc, 4);
+  hc.first_env = 2;
+  tasks::HeadingTask head_part(hc, 2);
+  for (int episode = 0; episode < 3; ++episode) {
+    for (Index e = 0; e < 4; ++e) {
+      loc_all.new_episode(all, e);
+      head_all.new_episode(all, e);
+    }
+    for (Index e = 0; e < 2; ++e) {
+      loc_part.new_episode(part, e);
+      head_part.new_episode(part, e);
+    }
+    for (Index e = 0; e < 2; ++e) {
+      EXPECT_EQ(loc_part.target(e), loc_all.target(e + 2)) << "episode " << episode;
+      EXPECT_EQ(head_part.direction(e), head_all.direction(e + 2)) << "episode " << episode;
+      EXPECT_EQ(head_part.speed(e), head_all.speed(e + 2)) << "episode " << episode;
+    }
+    EXPECT_NE(loc_part.target(0), loc_all.target(0));  // (another env's stream differs)
+  }
+  const std::vector<PartMask> set = {PartMask::parse("arms"), PartMask::parse("legs"), PartMask::parse("trunk")};
+  tasks::EpisodeMasks masks_all(set, 4, 0.0, 1.0 / 30, 9), masks_part(set, 2, 0.0, 1.0 / 30, 9, 2);
+  for (int episode = 0; episode < 8; ++episode) {
+    for (Index e = 0; e < 2; ++e) EXPECT_EQ(masks_part.masks()[e].bits, masks_all.masks()[e + 2].bits) << "episode " << episode;
+    for (Index e = 0; e < 4; ++e) masks_all.new_episode(e);
+    for (Index e = 0; e < 2; ++e) masks_part.new_episode(e);
+  }
+  EXPECT_THROW(tasks::env_streams(1, 0, 2, -1), Error);
 }

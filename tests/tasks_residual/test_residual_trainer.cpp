@@ -2,7 +2,7 @@
 // residual moves, and composition (ours, cml) and tracking runs produce finite statistics; a base
 // with normalised actions gets offset + scale ⊙ â as PD targets (training, scratch, evaluation)
 // and resumes bit-exactly.
-#include "../train/tiny_sim.hpp"
+#include "residual_fixtures.hpp"
 
 #include <maskadapt/train/goal_eval.hpp>
 #include <maskadapt/train/residual_eval.hpp>
@@ -24,118 +24,7 @@ using maskadapt::testing::TinyWalkerSim;
 
 namespace {
 
-tasks::ResetSampler upright(const Skeleton& skel) {
-  return [&skel](Rng& rng) {
-    tasks::ResetSample r;
-    r.pose = KinematicState::zero(skel);
-    r.pose.root_pos.z() = TinyWalkerSim::kHeight;
-    for (Index i = 0; i < r.pose.q.size(); ++i) r.pose.q[i] = rng.uniform(-0.1, 0.1);
-    return r;
-  };
-}
-
-// A looping clip of the tiny walker: body `b`'s first hinge swings with amplitude `amp`.
-MotionClip swing(const Skeleton& skel, std::vector<int> bodies, double amp, const std::string& name) {
-  MotionClip c;
-  c.name = name;
-  c.loop = true;
-  c.resize(61, skel.num_dofs());
-  for (int t = 0; t < 61; ++t) {
-    c.root_pos(2, t) = TinyWalkerSim::kHeight;
-    for (std::size_t i = 0; i < bodies.size(); ++i)
-      c.q(skel.dof_offset(bodies[i]), t) = (i % 2 ? -amp : amp) * std::sin(2 * M_PI * t / 60.0);
-  }
-  return c;
-}
-
-ResidualTrainConfig tiny_config(const std::string& task, const std::string& method) {
-  ResidualTrainConfig c;
-  c.task = task;
-  c.method = method;
-  c.rl.env.num_envs = 4;
-  c.rl.env.episode_seconds = 1.0;
-  c.rl.env.termination_height = 0.8;
-  c.rl.net.critic_hidden = {16};
-  c.rl.net.disc_hidden = {16};
-  c.rl.ppo.horizon = 8;
-  c.rl.ppo.epochs = 2;
-  c.rl.ppo.minibatch_size = 8;
-  c.rl.ppo.actor_lr = 1e-3;
-  c.rl.disc.batch_size = 8;
-  c.rl.disc.replay_size = 64;
-  c.rl.run.seed = 5;
-  c.residual_hidden = {16};
-  c.term_window_s = 0.2;
-  return c;
-}
-
-rl::GaussianActor<float> tiny_base(const Skeleton& skel) {
-  rl::ActorCriticConfig ac;
-  ac.policy_input_dim = observation_dim(skel) + kNumParts;
-  ac.critic_input_dim = observation_dim(skel);
-  ac.action_dim = skel.num_dofs();
-  ac.actor_hidden = {16, 16};
-  ac.init_log_std = -1.0;
-  Rng rng(1);
-  return rl::GaussianActor<float>(ac, rng);
-}
-
-struct Data {
-  Skeleton skel = maskadapt::testing::tiny_walker_skeleton();
-  MotionLibrary base{skel}, added{skel};
-  Data() {
-    base.add(swing(skel, {4, 5}, 0.4, "legs_swing"));
-    added.add(swing(skel, {2, 3}, 0.8, "arms_swing"));
-  }
-};
-
-// A generator for the tiny walker: keeps the last history frame and swings the arms.
-struct TinyGenerator {
-  Skeleton skel = maskadapt::testing::tiny_walker_skeleton();
-  const Skeleton& skeleton() const { return skel; }
-  Index history_frames() const { return 1; }
-  Index future_frames() const { return 4; }
-  tracking::Trajectory generate(const tracking::TextCondition& c, const tracking::Trajectory& h, Rng&) const {
-    tracking::Trajectory t = tracking::Trajectory::zeros(skel, 4);
-    const double a = c.text == "raise arms" ? 0.6 : 0.3;
-    for (Index i = 0; i < 4; ++i) {
-      t.root_pos.col(i) = h.root_pos.col(0);
-      t.root_rot[static_cast<std::size_t>(i)] = h.root_rot[0];
-      t.q.col(i) = h.q.col(0);
-      t.q(skel.dof_offset(2), i) = a;
-      t.q(skel.dof_offset(3), i) = -a;
-    }
-    tracking::compute_body_positions(skel, t);
-    return t;
-  }
-};
-
-template <class Sim = TinyWalkerSim>
-ResidualSetup<Sim> composition_setup(const Data& d, const std::string& method, const std::vector<BodyPart>& obs_parts) {
-  ResidualSetup<Sim> s;
-  const PartMask arms = PartMask::parse("arms"), legs = PartMask::parse("legs");
-  if (method == "ours") {
-    s.masks = {arms, legs};
-    s.switch_rate = 1.0;
-    auto set = std::make_shared<tasks::BlendedMotionSet>(d.base, d.added, s.masks);
-    DiscriminatorSource src;
-    src.name = "composition";
-    src.conditioned = true;
-    src.real = [set](Rng& r, Index B, MatrixXf& w, MatrixXf& c) { set->sample_real(r, B, w, c); };
-    src.negative = [set](Rng& r, Index B, MatrixXf& w, MatrixXf& c) { set->sample_negative(r, B, w, c); };
-    s.discriminators.push_back(src);
-  } else {  // cml: fixed region = arms, one discriminator per group
-    s.masks = {arms};
-    const MotionLibrary* added = &d.added;
-    const MotionLibrary* base = &d.base;
-    DiscriminatorSource a{"arms", 0.5, tasks::window_rows(obs_parts, arms), false,
-                          [added](Rng& r, Index B, MatrixXf& w, MatrixXf&) { w = added->sample_amp_windows(r, static_cast<int>(B)); }, {}};
-    DiscriminatorSource b{"rest", 0.5, tasks::window_rows(obs_parts, ~arms), false,
-                          [base](Rng& r, Index B, MatrixXf& w, MatrixXf&) { w = base->sample_amp_windows(r, static_cast<int>(B)); }, {}};
-    s.discriminators = {a, b};
-  }
-  return s;
-}
+using namespace maskadapt::testing::stage2;
 
 // A checkpoint's bytes without its training wall time (provenance/train_seconds: never equal
 // between two runs, and never read back into training).
@@ -222,42 +111,6 @@ TEST(ResidualTrainer, TrackingRunConsumesGoalsAndRewardsTheDesignatedParts) {
   EXPECT_LE(r, 1.0);
 }
 
-namespace {
-
-tasks::TrackingTaskConfig tiny_tracking_config(const Data& d) {
-  const PartMask arms = PartMask::parse("arms");
-  const MotionLibrary* base = &d.base;
-  auto gen = std::make_shared<TinyGenerator>();
-  tasks::TrackingTaskConfig t;
-  t.designated = arms;
-  t.goal_steps = 2;
-  t.sample_every = 3;  // a refill happens inside the resumed half
-  t.term_window = 4;
-  t.term_threshold = 0.5;  // high: the windowed termination fires during these few iterations
-  t.refill = [gen, base](Rng& r, tracking::GoalBuffer& b) {
-    b.refill(*gen, {"raise arms", "wave hands"},
-             [base](Rng& rr) { return tracking::trajectory_from_library(*base, 0, rr.uniform(0.0, 1.0), 1); }, 3, 40, r);
-  };
-  return t;
-}
-
-template <class Sim>
-ResidualSetup<Sim> tracking_setup(const Data& d, const Sim& sim, const tasks::TrackingTaskConfig& t) {
-  const PartMask arms = PartMask::parse("arms");
-  ResidualSetup<Sim> s;
-  s.masks = {arms};
-  const MotionLibrary* base = &d.base;
-  s.discriminators.push_back({"imitation", 0.5, tasks::window_rows(observation_parts(sim.skeleton()), ~arms), false,
-                              [base](Rng& r, Index B, MatrixXf& w, MatrixXf&) { w = base->sample_amp_windows(r, static_cast<int>(B)); }, {}});
-  s.goal = tasks::TrackingTask(sim.skeleton(), t, static_cast<Index>(sim.num_envs()));
-  return s;
-}
-template <class Sim>
-ResidualSetup<Sim> tracking_setup(const Data& d, const Sim& sim) {
-  return tracking_setup(d, sim, tiny_tracking_config(d));
-}
-
-}  // namespace
 
 // Stage-2 resume: 2 iterations, checkpoint, a fresh trainer loads it and runs 2 more — the
 // networks, optimiser moments and the next statistics equal those of 4 uninterrupted iterations,
@@ -389,7 +242,6 @@ tasks::ActionSpace tiny_space(const Skeleton& skel) {
 
 FrozenBase normalised_base(const Skeleton& skel) { return {tiny_base(skel), tiny_space(skel)}; }
 
-FallCriteria tiny_fall(const Skeleton& skel) { return FallCriteria::for_skeleton(skel, {"l_leg", "r_leg"}, "head", 0.8); }
 
 bool same_bits(const MatrixXf& a, const MatrixXf& b) {
   return a.rows() == b.rows() && a.cols() == b.cols() &&

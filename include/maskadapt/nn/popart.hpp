@@ -62,13 +62,31 @@ class PopArt {
     const VectorXd old_mu = mu_, old_sigma = stddev();
     mu_ = (1 - beta_) * mu_ + beta_ * y.rowwise().mean();
     nu_ = (1 - beta_) * nu_ + beta_ * y.array().square().rowwise().mean().matrix();
-    const VectorXd sigma = stddev();
-    for (Index k = 0; k < num_objectives(); ++k) {
-      const Index r = first_row + k;
-      const double ratio = old_sigma[k] / sigma[k];
-      weight.row(r) *= static_cast<T>(ratio);
-      bias[r] = static_cast<T>((old_sigma[k] * static_cast<double>(bias[r]) + old_mu[k] - mu_[k]) / sigma[k]);
-    }
+    rescale_last_layer(old_mu, old_sigma, weight, bias, first_row);
+  }
+
+  /// The same update from a batch's moments instead of the batch: `batch_mean` = mean_batch(y),
+  /// `batch_second_moment` = mean_batch(y²) (K each). A distributed trainer forms them from the
+  /// sums of all ranks' targets (train/stage2_learner.hpp).
+  void update_from_moments(const VectorXd& batch_mean, const VectorXd& batch_second_moment, Eigen::Ref<MatrixX<T>> weight,
+                           Eigen::Ref<VectorX<T>> bias, Index first_row = 0) {
+    require(batch_mean.size() == num_objectives() && batch_second_moment.size() == num_objectives(),
+            "batch moments must have " + std::to_string(num_objectives()) + " entries", {{}, std::nullopt, "PopArt::update.moments"});
+    require(weight.rows() == bias.size() && first_row >= 0 && first_row + num_objectives() <= weight.rows(),
+            "last layer rows out of range", {{}, std::nullopt, "PopArt::update.weight"});
+    require_finite(batch_mean, "PopArt::update.batch_mean");
+    require_finite(batch_second_moment, "PopArt::update.batch_second_moment");
+    const VectorXd old_mu = mu_, old_sigma = stddev();
+    mu_ = (1 - beta_) * mu_ + beta_ * batch_mean;
+    nu_ = (1 - beta_) * nu_ + beta_ * batch_second_moment;
+    rescale_last_layer(old_mu, old_sigma, weight, bias, first_row);
+  }
+  /// Same, on the last layer of `net` (which must have an Identity output activation).
+  void update_from_moments(const VectorXd& batch_mean, const VectorXd& batch_second_moment, Mlp<T>& net, Index first_row = 0) {
+    require(net.spec().output_activation == Activation::Identity, "PopArt needs a linear (Identity) output layer",
+            {{}, std::nullopt, "PopArt::update.net"});
+    const Index L = net.num_layers() - 1;
+    update_from_moments(batch_mean, batch_second_moment, net.weight(L), net.bias(L), first_row);
   }
 
   /// Same, on the last layer of `net` (which must have an Identity output activation).
@@ -106,6 +124,18 @@ class PopArt {
   void check(const Eigen::Ref<const MatrixX<T>>& a, const Eigen::Ref<MatrixX<T>>& out, const char* where) const {
     require(a.rows() == num_objectives() && out.rows() == a.rows() && out.cols() == a.cols(), "shape mismatch",
             {{}, std::nullopt, where});
+  }
+
+  /// W_k ← W_k · σ_k/σ'_k, b_k ← (σ_k·b_k + μ_k − μ'_k) / σ'_k for the new statistics.
+  void rescale_last_layer(const VectorXd& old_mu, const VectorXd& old_sigma, Eigen::Ref<MatrixX<T>> weight,
+                          Eigen::Ref<VectorX<T>> bias, Index first_row) {
+    const VectorXd sigma = stddev();
+    for (Index k = 0; k < num_objectives(); ++k) {
+      const Index r = first_row + k;
+      const double ratio = old_sigma[k] / sigma[k];
+      weight.row(r) *= static_cast<T>(ratio);
+      bias[r] = static_cast<T>((old_sigma[k] * static_cast<double>(bias[r]) + old_mu[k] - mu_[k]) / sigma[k]);
+    }
   }
 
   VectorXd mu_, nu_;

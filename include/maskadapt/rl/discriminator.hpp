@@ -200,7 +200,7 @@ class Discriminator {
   }
 
   /// update() on K ranks that all hold the same batch (real: feature_dim × B_r, fake:
-  /// feature_dim × B_f, unconditioned; B_r, B_f ≥ K): rank r back-propagates its slices of it —
+  /// feature_dim × B_f, B_r, B_f ≥ K; conditioned: with their cond_dim rows of each): rank r back-propagates its slices of it —
   /// columns [B·r/K, B·(r+1)/K) of each — with the objective's and the gradient penalty's
   /// gradients scaled by the slices' shares of the batch, the ranks' gradients are summed over
   /// `comm` (rank order), and then every rank adds the same regularisers and takes the same
@@ -208,7 +208,15 @@ class Discriminator {
   /// normaliser and optimiser must be equal on every rank (they stay so).
   DiscriminatorStats update_on_ranks(const Eigen::Ref<const MatrixX<T>>& real, const Eigen::Ref<const MatrixX<T>>& fake,
                                      Collective& comm) {
-    require(config_.cond_dim == 0, "update_on_ranks takes an unconditioned discriminator", {{}, {}, "Discriminator.cond"});
+    require(config_.cond_dim == 0, "this discriminator is conditioned: pass the conditioning of both batches",
+            {{}, {}, "Discriminator.cond"});
+    const MatrixX<T> no_cond;
+    return update_on_ranks(real, no_cond, fake, no_cond, comm);
+  }
+  /// The same with conditioning (cond_dim × B_r and cond_dim × B_f, or empty when cond_dim = 0).
+  DiscriminatorStats update_on_ranks(const Eigen::Ref<const MatrixX<T>>& real, const Eigen::Ref<const MatrixX<T>>& real_cond,
+                                     const Eigen::Ref<const MatrixX<T>>& fake, const Eigen::Ref<const MatrixX<T>>& fake_cond,
+                                     Collective& comm) {
     const Index K = comm.size(), r = comm.rank(), NR = real.cols(), NF = fake.cols();
     require(NR >= K && NF >= K, "each rank needs at least one real and one fake sample of the batch",
             {{}, {}, "Discriminator.batch"});
@@ -216,10 +224,17 @@ class Discriminator {
     const double share_r = static_cast<double>(nr) / static_cast<double>(NR);
     const double share_f = static_cast<double>(nf) / static_cast<double>(NF);
     DiscriminatorStats st;
-    in_both_.resize(config_.feature_dim, nr + nf);
-    const MatrixX<T> no_cond;
-    fill_input(real.middleCols(r0, nr), no_cond, in_both_.leftCols(nr));
-    fill_input(fake.middleCols(f0, nf), no_cond, in_both_.rightCols(nf));
+    in_both_.resize(config_.feature_dim + config_.cond_dim, nr + nf);
+    if (config_.cond_dim > 0) {
+      require(real_cond.cols() == NR && fake_cond.cols() == NF, "conditioning must have a column per sample",
+              {{}, {}, "Discriminator.cond"});
+      fill_input(real.middleCols(r0, nr), real_cond.middleCols(r0, nr), in_both_.leftCols(nr));
+      fill_input(fake.middleCols(f0, nf), fake_cond.middleCols(f0, nf), in_both_.rightCols(nf));
+    } else {
+      const MatrixX<T> no_cond;
+      fill_input(real.middleCols(r0, nr), no_cond, in_both_.leftCols(nr));
+      fill_input(fake.middleCols(f0, nf), no_cond, in_both_.rightCols(nf));
+    }
     net_.zero_grad();
     auto grad = net_.grads();
     const MatrixX<T>& d = net_.forward_train(in_both_, cache_);

@@ -72,14 +72,16 @@ inline MatrixXf mask_bits(const std::vector<PartMask>& masks) {
 class EpisodeMasks {
  public:
   EpisodeMasks() = default;
-  /// `switch_rate`: expected mid-episode switches per second (0: one mask per episode).
-  EpisodeMasks(std::vector<PartMask> set, Index num_envs, double switch_rate, double control_dt, std::uint64_t seed)
+  /// `switch_rate`: expected mid-episode switches per second (0: one mask per episode). Env e
+  /// draws from the stream of env first_env + e (a distributed run's rank offset).
+  EpisodeMasks(std::vector<PartMask> set, Index num_envs, double switch_rate, double control_dt, std::uint64_t seed,
+               Index first_env = 0)
       : set_(std::move(set)), switch_p_(std::clamp(switch_rate * control_dt, 0.0, 1.0)),
         masks_(static_cast<std::size_t>(num_envs), PartMask::none()) {
     require(!set_.empty(), "the mask set is empty", {{}, {}, "masks"});
     require(std::isfinite(switch_rate) && switch_rate >= 0, "switch rate must be ≥ 0", {{}, {}, "switch_rate"});
     for (Index e = 0; e < num_envs; ++e) {
-      rngs_.push_back(Rng::stream(seed, 0x3A5C0000ULL + static_cast<std::uint64_t>(e)));
+      rngs_.push_back(Rng::stream(seed, 0x3A5C0000ULL + static_cast<std::uint64_t>(first_env + e)));
       new_episode(e);
     }
   }

@@ -184,10 +184,11 @@ GoalOutcome advance_goal(AnyGoalTask<Sim>& goal, ImitationLike& task, Index e) {
 
 // ---- helpers shared by the goal tasks ----------------------------------------------------------
 
-/// Per-env RNG streams of a task: stream(seed, salt + e).
-inline std::vector<Rng> env_streams(std::uint64_t seed, std::uint64_t salt, Index num_envs) {
+/// Per-env RNG streams of a task: stream(seed, salt + first_env + e) for env e.
+inline std::vector<Rng> env_streams(std::uint64_t seed, std::uint64_t salt, Index num_envs, Index first_env = 0) {
+  require(first_env >= 0, "first_env must be >= 0", {{}, {}, "first_env"});
   std::vector<Rng> r;
-  for (Index e = 0; e < num_envs; ++e) r.push_back(Rng::stream(seed, salt + static_cast<std::uint64_t>(e)));
+  for (Index e = 0; e < num_envs; ++e) r.push_back(Rng::stream(seed, salt + static_cast<std::uint64_t>(first_env + e)));
   return r;
 }
 

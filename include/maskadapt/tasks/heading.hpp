@@ -28,6 +28,9 @@ struct HeadingConfig {
   Index success_window = 30;                ///< steps averaged for the success test
   GoalSchedule schedule{150, 300};
   std::uint64_t seed = 1;
+  /// Global index of env 0: env e draws from the stream of env first_env + e (a distributed run's
+  /// rank offset, so each env has its one-process stream; train/distributed.hpp).
+  Index first_env = 0;
 
   void validate() const {
     require(min_speed >= 0 && max_speed >= min_speed, "need 0 <= min_speed <= max_speed", {{}, {}, "heading.speed"});
@@ -55,7 +58,7 @@ inline void heading_goal(const Quat& root_rot, const Vec3& dir, double speed, Ei
 
 class HeadingTask {
  public:
-  HeadingTask(HeadingConfig c, Index num_envs) : c_((c.validate(), c)), rngs_(env_streams(c_.seed, 0x4EAD0000ULL, num_envs)) {
+  HeadingTask(HeadingConfig c, Index num_envs) : c_((c.validate(), c)), rngs_(env_streams(c_.seed, 0x4EAD0000ULL, num_envs, c_.first_env)) {
     const auto n = static_cast<std::size_t>(num_envs);
     dir_.assign(n, Vec3::UnitX());
     speed_.assign(n, 0.0);

@@ -28,6 +28,9 @@ struct LocationConfig {
   double min_distance = 1.0, max_distance = 5.0;  ///< target distance from the root when drawn (m)
   GoalSchedule schedule{150, 300};                ///< steps a target is held (5–10 s at 30 Hz)
   std::uint64_t seed = 1;
+  /// Global index of env 0: env e draws from the stream of env first_env + e (a distributed run's
+  /// rank offset, so each env has its one-process stream; train/distributed.hpp).
+  Index first_env = 0;
 
   void validate() const {
     require(radius > 0 && speed > 0 && velocity_scale > 0, "radius, speed and velocity_scale must be > 0",
@@ -62,7 +65,7 @@ inline void location_goal(const Vec3& root_pos, const Quat& root_rot, const Vec3
 
 class LocationTask {
  public:
-  LocationTask(LocationConfig c, Index num_envs) : c_((c.validate(), c)), rngs_(env_streams(c_.seed, 0x10CA7000ULL, num_envs)) {
+  LocationTask(LocationConfig c, Index num_envs) : c_((c.validate(), c)), rngs_(env_streams(c_.seed, 0x10CA7000ULL, num_envs, c_.first_env)) {
     const auto n = static_cast<std::size_t>(num_envs);
     target_.assign(n, Vec3::Zero());
     steps_left_.assign(n, 0);

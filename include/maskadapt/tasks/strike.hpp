@@ -33,6 +33,9 @@ struct StrikeConfig {
   std::vector<int> strike_bodies;  ///< skeleton bodies whose contact counts as a strike (the hands)
   bool end_on_foreign_contact = false;
   std::uint64_t seed = 1;
+  /// Global index of env 0: env e draws from the stream of env first_env + e (a distributed run's
+  /// rank offset, so each env has its one-process stream; train/distributed.hpp).
+  Index first_env = 0;
 
   void validate() const {
     require(box_half_height > 0, "box_half_height must be > 0", {{}, {}, "strike.box_half_height"});
@@ -81,7 +84,7 @@ enum class FirstContact : std::uint8_t { None = 0, Strike = 1, Foreign = 2 };
 
 class StrikeTask {
  public:
-  StrikeTask(StrikeConfig c, Index num_envs) : c_((c.validate(), std::move(c))), rngs_(env_streams(c_.seed, 0x57121000ULL, num_envs)) {
+  StrikeTask(StrikeConfig c, Index num_envs) : c_((c.validate(), std::move(c))), rngs_(env_streams(c_.seed, 0x57121000ULL, num_envs, c_.first_env)) {
     const auto n = static_cast<std::size_t>(num_envs);
     first_.assign(n, FirstContact::None);
     tilted_.assign(n, 0);

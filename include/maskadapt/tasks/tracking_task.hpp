@@ -30,12 +30,17 @@ struct TrackingTaskConfig {
   /// Refills the goal buffer (at construction and every `sample_every` iterations).
   std::function<void(Rng&, tracking::GoalBuffer&)> refill;
   std::uint64_t seed = 1;
+  /// Which goal stream: stream(seed, 0x7EAC0000 + stream). A distributed run gives rank r stream
+  /// r, so the ranks refill and draw their own goals (one stream shared by every env is drawn in
+  /// env order; across ranks that order does not exist, so tracking on K ranks is its own run,
+  /// not one process's; docs/distributed.md).
+  std::uint64_t stream = 0;
 };
 
 class TrackingTask {
  public:
   TrackingTask(const Skeleton& skel, TrackingTaskConfig c, Index num_envs)
-      : skel_(skel), c_(std::move(c)), rng_(Rng::stream(c_.seed, 0x7EAC0000ULL)) {
+      : skel_(skel), c_(std::move(c)), rng_(Rng::stream(c_.seed, 0x7EAC0000ULL + c_.stream)) {
     require(!c_.designated.empty(), "tracking needs designated parts", {{}, {}, "designated"});
     require(c_.goal_steps >= 1 && c_.sample_every >= 1, "tracking counts must be >= 1", {{}, {}, "tracking"});
     require(static_cast<bool>(c_.refill), "tracking needs a goal-buffer refill function", {{}, {}, "setup"});

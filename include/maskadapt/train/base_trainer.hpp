@@ -56,6 +56,7 @@
 #include <maskadapt/tasks/imitation.hpp>
 #include <maskadapt/train/base_policy.hpp>
 #include <maskadapt/train/collect.hpp>
+#include <maskadapt/train/distributed.hpp>
 #include <maskadapt/train/task_state.hpp>
 #include <maskadapt/train/config.hpp>
 #include <maskadapt/train/progress.hpp>
@@ -172,7 +173,7 @@ class BaseTrainer {
     ++iteration_;
     const long long batch = buf_.size() * comm_->size();  // (every rank holds as many samples)
     samples_ += batch;
-    if (distributed()) sum_episode_stats_over_ranks();
+    if (distributed()) sum_episode_stats_over_ranks(*comm_, task_.stats());
     finish_iteration_stats(st, iteration_, samples_, batch, total.seconds(), task_.stats());
     provenance_.train_seconds += st.time_total;
     return st;
@@ -196,8 +197,12 @@ class BaseTrainer {
     // Input statistics change only between iterations, so the behaviour policy that produced
     // buf_.log_probs is exactly the policy at the start of the PPO update.
     auto update_normalizers = [&](const MatrixXf& policy_input) {
-      if (distributed()) update_normalizers_over_ranks(policy_input, buf_.obs);
-      else policy_.ac.update_normalizers(policy_input, buf_.obs);
+      if (!distributed()) {
+        policy_.ac.update_normalizers(policy_input, buf_.obs);
+        return;
+      }
+      if (policy_.ac.actor.normalize_inputs) merge_normalizer_over_ranks(*comm_, policy_input, policy_.ac.actor.normalizer);
+      if (policy_.ac.critic.normalize_inputs) merge_normalizer_over_ranks(*comm_, buf_.obs, policy_.ac.critic.normalizer);
     };
     if (policy_.ac.actor.hidden_groups.empty()) {
       update_normalizers(buf_.policy_input);
@@ -253,13 +258,7 @@ class BaseTrainer {
   /// (the one rank 0 wrote) and takes its own envs from it; a checkpoint written by another
   /// number of ranks is refused (`dist/ranks`).
   void load(const Checkpoint& c) {
-    const std::int64_t ranks = c.contains("dist/ranks") ? c.get_int("dist/ranks") : 1;
-    require(ranks == comm_->size(),
-            "the checkpoint was written by a run of " + std::to_string(ranks) + " rank(s), this run has " +
-                std::to_string(comm_->size()) + "; resume it with the same number of ranks" +
-                (ranks > 1 ? " (mpirun -np " + std::to_string(ranks) + ")" : std::string(" (without mpirun)")) +
-                ": how the envs are split over ranks is part of the run's state",
-            {c.source(), std::nullopt, "dist/ranks"});
+    require_same_rank_count(c, *comm_);
     load_policy(c, policy_);
     apply_hidden_value();  // the run's config decides (a checkpoint from before the field has no groups)
     c.copy_to<float>("actor/adam", policy_.ac.actor.mean_net.block().storage());
@@ -301,7 +300,7 @@ class BaseTrainer {
   void reseed(std::uint64_t seed) {
     cfg_.run.seed = seed;
     rng_ = Rng::stream(seed, 0xB45E0000ULL);
-    if (distributed()) restart_env_streams(seed, /*keep_states=*/true);
+    if (distributed()) restart_env_streams(task_, seed, env_offset_, /*keep_states=*/true);
     else task_.reseed(seed);
   }
 
@@ -374,7 +373,7 @@ class BaseTrainer {
            dlogp] = mb_;
     adv = buf_.advantages;
     const bool dist = distributed();
-    if (dist) normalize_advantages_over_ranks(adv);
+    if (dist) normalize_rows_over_ranks(*comm_, adv);
     else rl::normalize_rows(adv);
     // n: samples of all ranks (minibatches are drawn over all of them); columns of buf_ are this rank's
     const Index n = buf_.size() * comm_->size();
@@ -416,7 +415,8 @@ class BaseTrainer {
         // this rank's samples of the minibatch (all of them in one process) and their share of it:
         // the losses below are means over the B samples here, so their gradients are scaled by
         // B / B_all, and the ranks' gradients then add up to the minibatch mean
-        const auto& idx = dist ? my_columns(all_idx) : all_idx;
+        if (dist) my_columns(all_idx, task_.num_envs(), comm_->size(), env_offset_, my_idx_);
+        const auto& idx = dist ? my_idx_ : all_idx;
         const Index B_all = static_cast<Index>(all_idx.size());
         const double share = static_cast<double>(idx.size()) / static_cast<double>(B_all);
         MinibatchResult mr = idx.empty() ? empty_minibatch() : minibatch_gradients(idx, B_all, share, fixed_target, ema_target);
@@ -516,7 +516,8 @@ class BaseTrainer {
     auto& disc = policy_.disc;
     // the agent windows of all ranks (distributed: gathered, so that every rank draws the same
     // batches, keeps the same replay buffer and takes the same steps)
-    const MatrixXf& amp = distributed() ? gather_amp_windows() : buf_.amp_windows;
+    if (distributed()) gather_step_major(*comm_, buf_.amp_windows, task_.num_envs(), global_amp_, "discriminator windows");
+    const MatrixXf& amp = distributed() ? global_amp_ : buf_.amp_windows;
     const Index n = amp.cols(), B = cfg_.disc.batch_size, half = B / 2, D = task_.amp_dim();
     const Index steps = std::max<Index>(1, cfg_.disc.epochs * n / B);
     MatrixXf &real = disc_real_, &fake = disc_fake_, &rep = disc_replayed_;
@@ -560,150 +561,36 @@ class BaseTrainer {
   /// Checks the ranks agree, finds this rank's env block and restarts its envs from the streams
   /// those envs have in one process (the task seeded them as envs 0…n−1).
   void join_ranks() {
-    const Index n = task_.num_envs();
-    require_same_on_all_ranks(*comm_, n, "envs per rank (the simulator's num_envs)");
-    require_same_on_all_ranks(*comm_, static_cast<std::int64_t>(policy_.ac.actor.mean_net.num_params() +
-                                                                policy_.ac.critic.net.num_params() +
-                                                                policy_.disc.net().num_params()),
-                              "network parameter count");
-    require_same_on_all_ranks(*comm_, static_cast<std::int64_t>(cfg_.run.seed), "run.seed");
-    env_offset_ = comm_->rank() * n;
-    require(cfg_.env.num_envs == comm_->size() * n,
-            "env.num_envs is " + std::to_string(cfg_.env.num_envs) + " but " + std::to_string(comm_->size()) +
-                " ranks with " + std::to_string(n) + " envs each step " + std::to_string(comm_->size() * n),
-            {{}, std::nullopt, "env.num_envs"});
-    restart_env_streams(cfg_.run.seed, /*keep_states=*/false);
+    env_offset_ = train::join_ranks(*comm_, task_.num_envs(),
+                                    static_cast<std::int64_t>(policy_.ac.actor.mean_net.num_params() +
+                                                              policy_.ac.critic.net.num_params() + policy_.disc.net().num_params()),
+                                    cfg_.run.seed, cfg_.env.num_envs);
+    restart_env_streams(task_, cfg_.run.seed, env_offset_, /*keep_states=*/false);
   }
 
-  /// Gives this rank's env e the stream Rng::stream(seed, env_offset + e) of global env
-  /// env_offset + e. keep_states: the envs continue where they are (with a simulator that can
-  /// save its state; otherwise they are reset); else every env is reset from its new stream.
-  void restart_env_streams(std::uint64_t seed, bool keep_states) {
-    auto ts = task_.save_state();
-    for (std::size_t e = 0; e < ts.rngs.size(); ++e)
-      ts.rngs[e] = Rng::stream(seed, static_cast<std::uint64_t>(env_offset_) + e).state();
-    if (!keep_states) ts.sim.clear();  // (load_state then resets every env from its stream)
-    task_.load_state(ts);
-  }
-
-  /// The action draw of the collection: the noise of all ranks' envs comes from the replicated
-  /// trainer stream in one process's order, and this rank keeps its columns (so each env gets
-  /// the noise it gets in one process).
+  /// The action draw of the collection: this rank's envs get the noise they get in one process
+  /// (the replicated trainer stream skips the other ranks' draws, in one process's order).
   void act_on_my_columns() {
-    auto& actor = policy_.ac.actor;
     const Index N = task_.num_envs(), A = task_.action_dim(), all = N * comm_->size();
-    mu_.resize(A, N);
-    actor.mean(task_.policy_inputs(), mu_, actor_ws_, scratch_);
-    wide_mu_.setZero(A, all);
-    wide_mu_.middleCols(env_offset_, N) = mu_;
-    wide_actions_.resize(A, all);
-    nn::gaussian_sample<float>(wide_mu_, actor.log_std_col(), rng_, wide_actions_);
-    actions_ = wide_actions_.middleCols(env_offset_, N);
-    logp_.resize(N);
-    nn::gaussian_log_prob<float>(mu_, actor.log_std_col(), actions_, logp_);
-  }
-
-  /// Columns of buf_ that hold this rank's samples of a minibatch of global sample indices
-  /// (global sample t·N_all + e is env e at step t; this rank's column is t·N + e − offset).
-  const std::vector<Index>& my_columns(const std::vector<Index>& global) {
-    const Index N = task_.num_envs(), all = N * comm_->size();
-    my_idx_.clear();
-    for (const Index g : global) {
-      const Index t = g / all, e = g % all - env_offset_;
-      if (e >= 0 && e < N) my_idx_.push_back(t * N + e);
-    }
-    return my_idx_;
+    skip_normals(rng_, env_offset_ * A);
+    policy_.ac.actor.act(task_.policy_inputs(), rng_, actions_, logp_, mu_, actor_ws_, scratch_);
+    skip_normals(rng_, (all - env_offset_ - N) * A);
   }
 
   /// Sums the actor's and critic's minibatch gradients over ranks (one all-reduce) and turns
   /// this rank's loss means into means over the whole minibatch.
   MinibatchResult sum_minibatch_over_ranks(const MinibatchResult& mine, double share) {
     auto& actor = policy_.ac.actor;
-    auto& critic = policy_.ac.critic;
     auto ga = actor.mean_net.grads();
     auto gs = actor.log_std.grads();
-    auto gc = critic.net.grads();
-    reduce_f_.resize(static_cast<std::size_t>(ga.size() + gs.size() + gc.size()));
-    float* p = reduce_f_.data();
-    std::copy(ga.data(), ga.data() + ga.size(), p);
-    std::copy(gs.data(), gs.data() + gs.size(), p + ga.size());
-    std::copy(gc.data(), gc.data() + gc.size(), p + ga.size() + gs.size());
-    comm_->all_reduce_sum(std::span<float>(reduce_f_));
-    std::copy(p, p + ga.size(), ga.data());
-    std::copy(p + ga.size(), p + ga.size() + gs.size(), gs.data());
-    std::copy(p + ga.size() + gs.size(), p + reduce_f_.size(), gc.data());
+    auto gc = policy_.ac.critic.net.grads();
+    all_reduce_gradients(*comm_, {{ga.data(), static_cast<std::size_t>(ga.size())}, {gs.data(), static_cast<std::size_t>(gs.size())},
+                                  {gc.data(), static_cast<std::size_t>(gc.size())}},
+                         reduce_f_);
     double m[5] = {mine.policy_loss * share, mine.value_loss * share, mine.approx_kl * share, mine.clip_frac * share,
                    mine.mi_kl * share};
     comm_->all_reduce_sum(std::span<double>(m, 5));
     return {m[0], m[1], m[2], m[3], m[4]};
-  }
-
-  /// rl::normalize_rows with the mean and deviation of all ranks' advantages.
-  void normalize_advantages_over_ranks(MatrixXf& adv, double eps = 1e-8) {
-    const double count = static_cast<double>(adv.cols()) * comm_->size();
-    for (Index k = 0; k < adv.rows(); ++k) {
-      const double mean = all_reduce_sum(*comm_, adv.row(k).template cast<double>().sum()) / count;
-      const double var =
-          all_reduce_sum(*comm_, (adv.row(k).template cast<double>().array() - mean).square().sum()) / count;
-      const double inv = 1.0 / (std::sqrt(var) + eps);
-      for (Index j = 0; j < adv.cols(); ++j) adv(k, j) = static_cast<float>((static_cast<double>(adv(k, j)) - mean) * inv);
-    }
-  }
-
-  /// The input normalisers see every rank's batch: each rank's (count, mean, M2) are gathered
-  /// and merged in rank order into one batch, which is merged into the running statistics.
-  void update_normalizers_over_ranks(const MatrixXf& policy_input, const MatrixXf& obs) {
-    auto merge = [&](const MatrixXf& x, nn::RunningNormalizer<float>& running) {
-      nn::RunningNormalizer<float> mine(x.rows());
-      mine.update(x);
-      std::vector<double> v{mine.count()};
-      v.insert(v.end(), mine.mean().data(), mine.mean().data() + x.rows());
-      v.insert(v.end(), mine.m2().data(), mine.m2().data() + x.rows());
-      nn::RunningNormalizer<float> batch(x.rows()), part(x.rows());
-      for (const Bytes& b : comm_->all_gather(to_bytes<double>(v))) {
-        const auto w = from_bytes<double>(b, "normaliser statistics");
-        require(static_cast<Index>(w.size()) == 1 + 2 * x.rows(), "ranks disagree on an input normaliser's size",
-                {{}, std::nullopt, "normalizer"});
-        part.set_state(w[0], Eigen::Map<const VectorXd>(w.data() + 1, x.rows()),
-                       Eigen::Map<const VectorXd>(w.data() + 1 + x.rows(), x.rows()));
-        batch.merge(part);
-      }
-      running.merge(batch);
-    };
-    if (policy_.ac.actor.normalize_inputs) merge(policy_input, policy_.ac.actor.normalizer);
-    if (policy_.ac.critic.normalize_inputs) merge(obs, policy_.ac.critic.normalizer);
-  }
-
-  /// Every rank's discriminator windows (amp_dim × N·horizon each) as one (amp_dim × N_all·horizon)
-  /// matrix in one process's column order (step-major: column t·N_all + global env).
-  const MatrixXf& gather_amp_windows() {
-    const MatrixXf& mine = buf_.amp_windows;
-    const Index D = mine.rows(), N = task_.num_envs(), H = mine.cols() / N, all = N * comm_->size();
-    const auto parts = comm_->all_gather(to_bytes<float>(std::span<const float>(mine.data(), static_cast<std::size_t>(mine.size()))));
-    global_amp_.resize(D, all * H);
-    for (std::size_t r = 0; r < parts.size(); ++r) {
-      require(parts[r].size() == static_cast<std::size_t>(mine.size()) * sizeof(float),
-              "rank " + std::to_string(r) + " sent discriminator windows of another size", {{}, std::nullopt, "amp_windows"});
-      const Eigen::Map<const MatrixXf> w(reinterpret_cast<const float*>(parts[r].data()), D, N * H);
-      for (Index t = 0; t < H; ++t) global_amp_.middleCols(t * all + static_cast<Index>(r) * N, N) = w.middleCols(t * N, N);
-    }
-    return global_amp_;
-  }
-
-  /// Episode counters of the iteration summed over ranks (rank order), on every rank.
-  void sum_episode_stats_over_ranks() {
-    auto& es = task_.stats();
-    double v[7] = {static_cast<double>(es.episodes), static_cast<double>(es.falls), static_cast<double>(es.truncations),
-                   es.total_seconds, static_cast<double>(es.steps), static_cast<double>(es.masked_steps),
-                   static_cast<double>(es.sim_resets)};
-    comm_->all_reduce_sum(std::span<double>(v, 7));
-    es.episodes = static_cast<long long>(v[0]);
-    es.falls = static_cast<long long>(v[1]);
-    es.truncations = static_cast<long long>(v[2]);
-    es.total_seconds = v[3];
-    es.steps = static_cast<long long>(v[4]);
-    es.masked_steps = static_cast<long long>(v[5]);
-    es.sim_resets = static_cast<long long>(v[6]);
   }
 
   /// Rank 0's `c` gets every rank's task state (checkpoint layout of one process with all envs).
@@ -713,36 +600,21 @@ class BaseTrainer {
     save_task_state(mine, "task/", task_);
     const Bytes bytes = serialize_checkpoint(mine);
     const auto parts = comm_->gather(bytes, 0);
-    // the ranks' parameters must agree bit for bit (they take the same steps from the same sums)
-    const std::uint64_t h = parameter_fingerprint();
-    const auto all = all_gather_concat<std::uint64_t>(*comm_, std::span<const std::uint64_t>(&h, 1));
-    for (std::size_t r = 1; r < all.size(); ++r)  // (every rank sees the same list, so all of them throw)
-      require(all[r] == all[0],
-              "rank " + std::to_string(r) + "'s network parameters differ from rank 0's at iteration " +
-                  std::to_string(iteration_) + ": the ranks have diverged (no checkpoint written; the last one is kept)",
-              {{}, std::nullopt, "dist/parameters"});
+    require_same_parameters(*comm_,
+                            ParameterFingerprint()
+                                .add(policy_.ac.actor.mean_net.params())
+                                .add(policy_.ac.critic.net.params())
+                                .add(policy_.disc.net().params())
+                                .value(),
+                            iteration_);
     if (!comm_->is_root()) return;
     std::vector<Checkpoint> ranks;
     for (std::size_t r = 0; r < parts.size(); ++r) ranks.push_back(parse_checkpoint(parts[r], "rank " + std::to_string(r) + " task state"));
     concat_task_states(ranks, "task/", c);
   }
 
-  /// FNV-1a over the actor's, critic's and discriminator's parameter bytes.
-  std::uint64_t parameter_fingerprint() const {
-    std::uint64_t h = 1469598103934665603ULL;
-    auto add = [&](const auto& v) {
-      const auto* b = reinterpret_cast<const unsigned char*>(v.data());
-      for (std::size_t i = 0; i < static_cast<std::size_t>(v.size()) * sizeof(float); ++i) h = (h ^ b[i]) * 1099511628211ULL;
-    };
-    add(policy_.ac.actor.mean_net.params());
-    add(policy_.ac.critic.net.params());
-    add(policy_.disc.net().params());
-    return h;
-  }
-
   Collective* comm_ = nullptr;  ///< never null after construction (SingleProcess by default)
   Index env_offset_ = 0;        ///< global index of this rank's first env
-  MatrixXf wide_mu_, wide_actions_;  ///< (action_dim × N_all) the collection's noise draw over all ranks' envs
   std::vector<Index> my_idx_;   ///< this rank's columns of the current minibatch
   std::vector<float> reduce_f_; ///< gradients of one minibatch, packed for the all-reduce
   MatrixXf global_amp_;         ///< (amp_dim × N_all·horizon) all ranks' discriminator windows

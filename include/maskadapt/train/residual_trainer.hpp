@@ -46,8 +46,21 @@
 /// task's own state (its `save`, under "state/goal_task/").
 /// A goal task that ends an episode (tracking's windowed termination, strike's foreign contact)
 /// physically resets the env (ImitationTask::restart_env).
+///
+/// Distributed (docs/distributed.md, train/distributed.hpp): given a Collective of K ranks, rank r
+/// steps the global envs [r·n, (r+1)·n) (n = sim.num_envs(), env.num_envs = K·n) with the streams
+/// those envs have in one process (imitation task, episode masks; a goal task's per-env streams
+/// when the caller built it with `first_env` = r·n) and the action noise one process draws for
+/// them. The input normalisers merge every rank's batch at every collection step; advantages,
+/// PopArt and the PPO minibatches use all ranks' samples and the actor's and critic's gradients
+/// are summed before each Adam step (Stage2Learner); the discriminators see every rank's windows
+/// and sum their gradients (RewardDiscriminators); episode statistics, goal-task trials and the
+/// logged means are combined. Rank 0's checkpoint holds every rank's env-side state (imitation
+/// task, masks and their streams, goal task) under `dist/rank/<r>/`, and `dist/ranks` = K; `load`
+/// refuses another K.
 #include <maskadapt/adapt/residual_policy.hpp>
 #include <maskadapt/core/checkpoint.hpp>
+#include <maskadapt/core/collective.hpp>
 #include <maskadapt/core/error.hpp>
 #include <maskadapt/core/rng.hpp>
 #include <maskadapt/humanoid/description.hpp>
@@ -62,6 +75,7 @@
 #include <maskadapt/train/base_policy.hpp>
 #include <maskadapt/train/collect.hpp>
 #include <maskadapt/train/config.hpp>
+#include <maskadapt/train/distributed.hpp>
 #include <maskadapt/train/progress.hpp>
 #include <maskadapt/train/residual_config.hpp>
 #include <maskadapt/train/reward_discriminators.hpp>
@@ -97,20 +111,26 @@ class ResidualTrainer {
  public:
   /// A base with the identity action space (its actions are the PD targets).
   ResidualTrainer(Sim& sim, tasks::ResetSampler reset, rl::GaussianActor<float> base, ResidualSetup<Sim> setup,
-                  ResidualTrainConfig config, ThreadPool* pool = nullptr, std::optional<FallCriteria> fall = std::nullopt)
+                  ResidualTrainConfig config, ThreadPool* pool = nullptr, std::optional<FallCriteria> fall = std::nullopt,
+                  Collective* comm = nullptr)
       : ResidualTrainer(sim, std::move(reset), FrozenBase{std::move(base), {}}, std::move(setup), std::move(config), pool,
-                        std::move(fall)) {}
+                        std::move(fall), comm) {}
   /// `base.actions` maps the composite actions to PD targets (see the file comment). `load`
-  /// replaces the base and its action space with the checkpoint's.
+  /// replaces the base and its action space with the checkpoint's. `comm`: the ranks of a
+  /// distributed run (nullptr: this process alone); every rank constructs its trainer with the
+  /// same config and setup and a simulator of env.num_envs / K envs (collective).
   ResidualTrainer(Sim& sim, tasks::ResetSampler reset, FrozenBase base, ResidualSetup<Sim> setup,
-                  ResidualTrainConfig config, ThreadPool* pool = nullptr, std::optional<FallCriteria> fall = std::nullopt)
+                  ResidualTrainConfig config, ThreadPool* pool = nullptr, std::optional<FallCriteria> fall = std::nullopt,
+                  Collective* comm = nullptr)
       : cfg_((config.validate(), std::move(config))), setup_(std::move(setup)),
         task_(sim, std::move(reset), no_mask_task(cfg_.rl, std::move(fall)), cfg_.rl.run.seed, pool),
         part_elements_(task_.obs_parts()), rng_(Rng::stream(cfg_.rl.run.seed, 0x5E51D000ULL)) {
     require(!setup_.discriminators.empty() || setup_.goal, "a residual run needs at least one objective",
             {{}, {}, "setup"});
     const Index N = task_.num_envs();
-    masks_ = tasks::EpisodeMasks(setup_.masks, N, setup_.switch_rate, task_.control_dt(), cfg_.rl.run.seed);
+    comm_ = comm ? comm : &single_process();
+    env_offset_ = comm_->rank() * N;  // (checked against the other ranks below)
+    masks_ = tasks::EpisodeMasks(setup_.masks, N, setup_.switch_rate, task_.control_dt(), cfg_.rl.run.seed, env_offset_);
     Rng init = Rng::stream(cfg_.rl.run.seed, 0x2E51ULL);
     const nn::Activation activation = residual_activation(cfg_.rl.net.activation);
     policy_ = make_stage2_policy<Policy>(std::move(base), task_.obs_dim(), sim.skeleton(), cfg_, setup_.goal.goal_dim(), init);
@@ -129,6 +149,10 @@ class ResidualTrainer {
     spec.num_objectives = K_;
     spec.amp_dim = W;
     buf_.resize(spec);
+    if (distributed()) {  // this rank's envs restart from the streams they have in one process
+      join_ranks(*comm_, N, static_cast<std::int64_t>(parameter_count()), cfg_.rl.run.seed, cfg_.rl.env.num_envs);
+      restart_env_streams(task_, cfg_.rl.run.seed, env_offset_, /*keep_states=*/false);
+    }
     if (setup_.goal)
       for (Index e = 0; e < N; ++e) setup_.goal.new_episode(task_.sim(), e);
   }
@@ -156,6 +180,11 @@ class ResidualTrainer {
   tasks::AnyGoalTask<Sim>& goal_task() { return setup_.goal; }
   /// Critic input rows [s ; m ; g].
   Index critic_dim() const { return task_.obs_dim() + kNumParts + policy_goal_dim(); }
+  /// The ranks this trainer runs with (SingleProcess unless a Collective was given).
+  Collective& collective() const { return *comm_; }
+  bool distributed() const { return comm_->size() > 1; }
+  /// Index of this rank's first env among all ranks' envs (0 in one process).
+  Index env_offset() const { return env_offset_; }
 
   IterationStats iterate() {
     IterationStats st;
@@ -171,8 +200,12 @@ class ResidualTrainer {
     }
     collect(st);
     if (setup_.goal) {
-      st.extra[setup_.goal.name() + "_terminations"] = static_cast<double>(goal_terminations_);
-      const auto& tr = setup_.goal.trials();
+      tasks::TrialCounter tr = setup_.goal.trials();
+      double counts[3] = {static_cast<double>(goal_terminations_), static_cast<double>(tr.trials), static_cast<double>(tr.successes)};
+      if (distributed()) comm_->all_reduce_sum(std::span<double>(counts, 3));
+      tr.trials = static_cast<long long>(counts[1]);
+      tr.successes = static_cast<long long>(counts[2]);
+      st.extra[setup_.goal.name() + "_terminations"] = counts[0];
       if (tr.trials > 0) {
         st.extra["trials"] = static_cast<double>(tr.trials);
         st.extra["success_rate"] = tr.rate();
@@ -183,14 +216,16 @@ class ResidualTrainer {
     compute_rewards(st);  // (the tracking task's reward terms are timed with the discriminators')
     st.time_disc += disc_rewards.seconds();
     rl::compute_gae(buf_, rl::GaeParams{cfg_.rl.ppo.gamma, cfg_.rl.ppo.gae_lambda});
-    learner_.update(policy_, buf_, weights_, cfg_.rl.ppo, rng_, st);  // 3. PPO on the residual
+    learner_.update(policy_, buf_, weights_, cfg_.rl.ppo, rng_, st, ranks());  // 3. PPO on the residual
     Stopwatch disc_update;
-    discs_.update(buf_.amp_windows, buf_.masks, rng_, st);
+    discs_.update(buf_.amp_windows, buf_.masks, rng_, st, ranks());
     st.time_disc += disc_update.seconds();
     st.time_update += upd.seconds();
     ++iteration_;
-    samples_ += buf_.size();
-    finish_iteration_stats(st, iteration_, samples_, buf_.size(), total.seconds(), task_.stats());
+    const long long batch = buf_.size() * comm_->size();  // (every rank holds as many samples)
+    samples_ += batch;
+    if (distributed()) sum_episode_stats_over_ranks(*comm_, task_.stats());
+    finish_iteration_stats(st, iteration_, samples_, batch, total.seconds(), task_.stats());
     provenance_.train_seconds += st.time_total;
     st.mask_fraction = 1.0;  // the residual task's own masks, not the imitation task's (which has none)
     return st;
@@ -208,15 +243,19 @@ class ResidualTrainer {
     provenance_.save(c);  // (how the run came about; never read back into training)
     save_training_state(c);
   }
+  /// Distributed: collective; rank 0 writes the file (every rank's envs), the others write nothing.
   void save(const std::string& path) const {
     Checkpoint c;
     save(c);
-    save_checkpoint(path, c);
+    if (comm_->is_root()) save_checkpoint(path, c);
   }
   /// Restores what `save` wrote (same sizes and env count; throws naming the section otherwise).
   /// A checkpoint without the "state/" sections (networks only) restores the networks and
-  /// counters; training then continues from fresh optimiser and RNG states.
+  /// counters; training then continues from fresh optimiser and RNG states. Distributed: every
+  /// rank loads the checkpoint rank 0 wrote and takes its own envs' state from it; the training
+  /// state of another number of ranks is refused (`dist/ranks`).
   void load(const Checkpoint& c) {
+    if (c.contains("state/rng")) require_same_rank_count(c, *comm_);
     policy_.load(c, true);
     learner_.load(c);
     discs_.load(c);
@@ -233,6 +272,20 @@ class ResidualTrainer {
     learner_.save_state(c, self.policy_.trainable_blocks());
     discs_.save_state(c);
     c.put_rng("state/rng", rng_);
+    if (!distributed()) {
+      save_env_state(c);
+      return;
+    }
+    // every rank's envs under dist/rank/<r>/ (a goal task's layout is its own), after checking
+    // that the replicated state agrees on every rank
+    require_same_parameters(*comm_, parameter_fingerprint(), iteration_);
+    Checkpoint mine;
+    save_env_state(mine);
+    gather_rank_sections(*comm_, mine, c);
+    c.put_int("dist/ranks", comm_->size());
+  }
+  /// This rank's env-side state: episode masks and their streams, the imitation task, the goal task.
+  void save_env_state(Checkpoint& c) const {
     const Index N = task_.num_envs();
     VectorX<std::int64_t> masks(N);
     for (Index e = 0; e < N; ++e) {
@@ -248,6 +301,10 @@ class ResidualTrainer {
     learner_.load_state(c, policy_.trainable_blocks());
     discs_.load_state(c);
     rng_.set_state(c.get_rng("state/rng"));
+    if (distributed()) load_env_state(rank_sections(c, comm_->rank()));
+    else load_env_state(c);
+  }
+  void load_env_state(const Checkpoint& c) {
     const Index N = task_.num_envs();
     const auto masks = c.get_vector<std::int64_t>("state/masks", N);
     for (Index e = 0; e < N; ++e) {
@@ -285,6 +342,24 @@ class ResidualTrainer {
     if (G > 0) out.bottomRows(G) = goals;
   }
 
+  // ---- distributed runs --------------------------------------------------------------------
+  RankLayout ranks() const { return distributed() ? RankLayout{comm_, task_.num_envs(), env_offset_} : RankLayout{}; }
+  /// Parameters of everything every rank holds a copy of and steps (residual, critic, discriminators).
+  std::size_t parameter_count() {
+    std::size_t n = static_cast<std::size_t>(learner_.critic().net.num_params());
+    for (nn::ParameterBlock<float>* b : policy_.trainable_blocks()) n += static_cast<std::size_t>(b->params().size());
+    for (auto& d : discs_.set().members) n += static_cast<std::size_t>(d.net().num_params());
+    return n;
+  }
+  std::uint64_t parameter_fingerprint() const {
+    auto& self = const_cast<ResidualTrainer&>(*this);  // block accessors are non-const only; nothing changes
+    ParameterFingerprint f;
+    for (nn::ParameterBlock<float>* b : self.policy_.trainable_blocks()) f.add(b->params());
+    f.add(learner_.critic().net.params());
+    for (const auto& d : discs_.set().members) f.add(d.net().params());
+    return f.value();
+  }
+
   // ---- 1. collection ----------------------------------------------------------------------
   void collect(IterationStats& st) {
     goal_rewards_.setZero(buf_.size());
@@ -304,9 +379,18 @@ class ResidualTrainer {
       t.current_goals(goals);
       t.policy_.build_input(t.part_elements_, t.task_.observations(), masks, goals, x, t.ws_);
       t.critic_input(t.task_.observations(), masks, goals, cin);
-      t.policy_.residual().normalizer.update(x);
-      t.learner_.critic().normalizer.update(cin);
-      t.policy_.act(x, masks, t.rng_, t.actions_, t.logp_, t.mu_, t.ws_);
+      if (t.distributed()) {  // every rank's batch into the statistics; this rank's envs' noise
+        merge_normalizer_over_ranks(*t.comm_, x, t.policy_.residual().normalizer);
+        merge_normalizer_over_ranks(*t.comm_, cin, t.learner_.critic().normalizer);
+        const Index N = t.task_.num_envs(), A = t.policy_.action_dim(), all = N * t.comm_->size();
+        skip_normals(t.rng_, t.env_offset_ * A);
+        t.policy_.act(x, masks, t.rng_, t.actions_, t.logp_, t.mu_, t.ws_);
+        skip_normals(t.rng_, (all - t.env_offset_ - N) * A);
+      } else {
+        t.policy_.residual().normalizer.update(x);
+        t.learner_.critic().normalizer.update(cin);
+        t.policy_.act(x, masks, t.rng_, t.actions_, t.logp_, t.mu_, t.ws_);
+      }
       t.learner_.values(cin, v);
       t.buf_.record_policy_step(step, cin, x, masks, t.actions_, t.logp_, v);
       // The task's action space is the identity: â becomes PD targets here, through the base's
@@ -341,12 +425,21 @@ class ResidualTrainer {
   // ---- 2. rewards -------------------------------------------------------------------------
   void compute_rewards(IterationStats& st) {
     discs_.rewards(buf_.amp_windows, buf_.masks, buf_.rewards, K_ > 1, st);
+    if (distributed()) {  // (means over equally many samples on every rank: the mean of the ranks' means)
+      st.disc_reward = mean_over_ranks(*comm_, st.disc_reward);
+      for (const auto& src : discs_.sources())
+        if (st.extra.count("reward_" + src.name)) st.extra["reward_" + src.name] = mean_over_ranks(*comm_, st.extra["reward_" + src.name]);
+    }
     if (setup_.goal) {
       buf_.rewards.row(K_ - 1) = goal_rewards_;
       last_goal_reward_ = goal_rewards_.cast<double>().mean();
+      if (distributed()) last_goal_reward_ = mean_over_ranks(*comm_, last_goal_reward_);
       st.extra[setup_.goal.name() + "_reward"] = last_goal_reward_;
     }
   }
+
+  Collective* comm_ = nullptr;  ///< never null after construction (SingleProcess by default)
+  Index env_offset_ = 0;        ///< global index of this rank's first env
 
   ResidualTrainConfig cfg_;
   ResidualSetup<Sim> setup_;

@@ -19,6 +19,7 @@
 #include <maskadapt/tasks/composition.hpp>
 #include <maskadapt/train/base_policy.hpp>
 #include <maskadapt/train/config.hpp>
+#include <maskadapt/train/distributed.hpp>
 #include <maskadapt/train/progress.hpp>
 #include <maskadapt/train/residual_config.hpp>
 
@@ -83,7 +84,18 @@ class RewardDiscriminators {
   }
 
   /// Discriminator steps on the agent windows (window_dim × n) of an iteration (see file comment).
-  void update(const MatrixXf& agent_windows, const std::vector<PartMask>& agent_masks, Rng& rng, IterationStats& st) {
+  /// Distributed (`ranks`): the windows and masks of all ranks are gathered (one process's column
+  /// order), so every rank draws the same batches from the replicated `rng` and keeps the same
+  /// replay buffers; each rank back-propagates its slice of each batch and the gradients are
+  /// summed over ranks (rl::Discriminator::update_on_ranks).
+  void update(const MatrixXf& windows_here, const std::vector<PartMask>& masks_here, Rng& rng, IterationStats& st,
+              const RankLayout& ranks = {}) {
+    if (ranks.distributed()) {
+      gather_step_major(*ranks.comm, windows_here, ranks.envs_here, all_windows_, "discriminator windows");
+      gather_step_major(*ranks.comm, masks_here, ranks.envs_here, all_masks_);
+    }
+    const MatrixXf& agent_windows = ranks.distributed() ? all_windows_ : windows_here;
+    const std::vector<PartMask>& agent_masks = ranks.distributed() ? all_masks_ : masks_here;
     const Index n = agent_windows.cols(), B = disc_.batch_size, half = B / 2;
     const Index steps = std::max<Index>(1, disc_.epochs * n / B);
     double sum_real = 0, sum_fake = 0, sum_loss = 0, sum_gp = 0;
@@ -123,8 +135,10 @@ class RewardDiscriminators {
           d.update_normalizer(real_f);
           d.update_normalizer(feat);
         }
-        const auto ds = d.update(real_f, src.conditioned ? MatrixXf(real_c) : MatrixXf(0, B), fake.topRows(F),
-                                 C > 0 ? MatrixXf(fake.bottomRows(C)) : MatrixXf(0, fake.cols()));
+        const MatrixXf real_cond = src.conditioned ? MatrixXf(real_c) : MatrixXf(0, B);
+        const MatrixXf fake_cond = C > 0 ? MatrixXf(fake.bottomRows(C)) : MatrixXf(0, fake.cols());
+        const auto ds = ranks.distributed() ? d.update_on_ranks(real_f, real_cond, fake.topRows(F), fake_cond, *ranks.comm)
+                                            : d.update(real_f, real_cond, fake.topRows(F), fake_cond);
         if (ds.skipped) ++st.skipped_updates;
         sum_real += ds.real_mean;
         sum_fake += ds.fake_mean;
@@ -198,6 +212,8 @@ class RewardDiscriminators {
   double negative_fraction_ = 0.25;
   rl::DiscriminatorSet<float> set_;
   std::vector<rl::ReplayBuffer<float>> replays_;
+  MatrixXf all_windows_;              ///< distributed: every rank's agent windows (window_dim × N_all·H)
+  std::vector<PartMask> all_masks_;   ///< and their masks
 };
 
 }  // namespace maskadapt::train

@@ -20,11 +20,13 @@
 #include <maskadapt/rl/rollout_buffer.hpp>
 #include <maskadapt/train/base_policy.hpp>
 #include <maskadapt/train/config.hpp>
+#include <maskadapt/train/distributed.hpp>
 #include <maskadapt/train/progress.hpp>
 #include <maskadapt/train/stage2_policy.hpp>
 
 #include <algorithm>
 #include <cmath>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -63,66 +65,49 @@ class Stage2Learner {
 
   /// PPO epochs over the rollout `buf` (advantages and returns computed) on `policy`'s trainable
   /// blocks and the critic; `weights` (K) combine the normalised per-objective advantages.
+  /// Distributed (`ranks`, docs/distributed.md): `buf` holds this rank's envs; advantages are
+  /// normalised and PopArt updated with the statistics of all ranks' samples, the minibatches are
+  /// drawn over all of them (from the replicated `rng`), each rank computes the gradients of the
+  /// samples it holds scaled to its share of the minibatch, and the actor's and critic's gradients
+  /// are summed over ranks before the Adam steps (the KL driving the adaptive rate likewise).
   void update(Policy& policy, const rl::RolloutBuffer<float>& buf, const std::vector<double>& weights,
-              const PpoConfig& ppo, Rng& rng, IterationStats& st) {
+              const PpoConfig& ppo, Rng& rng, IterationStats& st, const RankLayout& ranks = {}) {
+    const bool dist = ranks.distributed();
+    const Index K_ranks = dist ? ranks.comm->size() : 1;
     MatrixXf adv_k = buf.advantages;
-    rl::normalize_rows(adv_k);
-    RowVectorX<float> adv = RowVectorX<float>::Zero(buf.size());
-    for (Index k = 0; k < K_; ++k) adv += static_cast<float>(weights[static_cast<std::size_t>(k)]) * adv_k.row(k);
-    popart_.update(buf.returns, critic_.net);
-    MatrixXf ret_n(K_, buf.size());
-    popart_.normalize(buf.returns, ret_n);
-    const Index n = buf.size();
+    if (dist) normalize_rows_over_ranks(*ranks.comm, adv_k);
+    else rl::normalize_rows(adv_k);
+    adv_.setZero(buf.size());
+    for (Index k = 0; k < K_; ++k) adv_ += static_cast<float>(weights[static_cast<std::size_t>(k)]) * adv_k.row(k);
+    if (dist) update_popart_over_ranks(*ranks.comm, buf.returns);
+    else popart_.update(buf.returns, critic_.net);
+    ret_n_.resize(K_, buf.size());
+    popart_.normalize(buf.returns, ret_n_);
+    const Index n = buf.size() * K_ranks;  // (minibatches are drawn over every rank's samples)
     const Index nmb = std::max<Index>(1, std::min<Index>(n, n / std::max<Index>(1, ppo.minibatch_size)));
     PpoMinibatchMeans means;
-    MatrixXf x, act, cin, norm_cin, dmu, dv, target, vold;
-    RowVectorX<float> lp_old, a_mb, lp_new, dlogp;
-    std::vector<PartMask> ms;
     for (int epoch = 0; epoch < ppo.epochs; ++epoch) {
-      for (const auto& idx : rl::minibatch_indices(n, nmb, rng)) {
-        rl::gather_columns(buf.policy_input, idx, x);
-        rl::gather_columns(buf.actions, idx, act);
-        rl::gather_columns(buf.obs, idx, cin);
-        rl::gather_columns(ret_n, idx, target);
-        const Index B = static_cast<Index>(idx.size());
-        ms.resize(static_cast<std::size_t>(B));
-        lp_old.resize(B);
-        a_mb.resize(B);
-        for (Index j = 0; j < B; ++j) {
-          const Index c = idx[static_cast<std::size_t>(j)];
-          lp_old[j] = buf.log_probs[c];
-          a_mb[j] = adv[c];
-          ms[static_cast<std::size_t>(j)] = buf.masks[static_cast<std::size_t>(c)];
-        }
-        policy.zero_grad();
-        const MatrixXf& mu = policy.forward_train(x, ms, cache_);
-        policy.log_prob(cache_, act, lp_new);
-        const auto sur = rl::clipped_surrogate<float>(lp_new, lp_old, a_mb, ppo.clip, dlogp);
-        Policy::log_prob_mean_grad(cache_, act, dlogp, dmu);
-        // action-bound penalty on the PD targets beyond ±π rad, as in stage 1 (target = offset +
-        // scale ⊙ μ̂, so ∂/∂μ̂ carries a factor scale; the identity's target is μ̂ itself)
-        const float bound = static_cast<float>(M_PI), wb = static_cast<float>(ppo.action_bound_weight);
-        const tasks::ActionSpace& space = policy.actions();
-        if (space.identity()) {
-          dmu.array() += wb / static_cast<float>(B) * ((mu.array() - bound).max(0.0f) + (mu.array() + bound).min(0.0f)) * 2.0f;
+      for (const auto& all_idx : rl::minibatch_indices(n, nmb, rng)) {
+        // this rank's samples of the minibatch (all of them in one process) and their share of it
+        if (dist) my_columns(all_idx, ranks.envs_here, K_ranks, ranks.offset, my_idx_);
+        const auto& idx = dist ? my_idx_ : all_idx;
+        const Index B_all = static_cast<Index>(all_idx.size());
+        const double share = static_cast<double>(idx.size()) / static_cast<double>(B_all);
+        Minibatch mb;
+        if (idx.empty()) {
+          policy.zero_grad();
+          critic_.net.zero_grad();
         } else {
-          space.add_bound_penalty_grad(mu, bound, wb / static_cast<float>(B), bound_targets_, dmu);
+          mb = minibatch_gradients(policy, buf, idx, B_all, share, ppo);
         }
-        policy.backward(cache_, dmu);
+        if (dist) mb = sum_over_ranks(*ranks.comm, policy, mb, share);
         const auto ar = actor_opt_.step(policy.trainable_blocks());
         if (!ar.applied) ++st.skipped_updates;
         if (ppo.actor_lr_schedule == "adaptive")  // next minibatch's step sized by this one's KL (as stage 1)
-          actor_opt_.config().lr = rl::adapt_learning_rate(actor_opt_.config().lr, sur.approx_kl, ppo.adaptive_lr);
-        critic_.net.zero_grad();
-        critic_.normalize(cin, norm_cin);
-        const MatrixXf& v = critic_.net.forward_train(norm_cin, critic_cache_);
-        vold = v;
-        const double vl = rl::value_loss<float>(v, vold, target, 0.0, dv);
-        dv *= static_cast<float>(ppo.critic_weight);
-        critic_.net.backward(critic_cache_, dv, critic_.net.grads());
+          actor_opt_.config().lr = rl::adapt_learning_rate(actor_opt_.config().lr, mb.approx_kl, ppo.adaptive_lr);
         const auto cr = critic_opt_.step(critic_.net.block());
         if (!cr.applied) ++st.skipped_updates;
-        means.add(sur.loss, vl, sur.approx_kl, sur.clip_frac, 0.0, ar.grad_norm);
+        means.add(mb.policy_loss, mb.value_loss, mb.approx_kl, mb.clip_frac, 0.0, ar.grad_norm);
       }
     }
     means.write(st);  // (no MI term in stage 2: mi_kl 0)
@@ -166,6 +151,90 @@ class Stage2Learner {
   }
 
  private:
+  /// Losses of one minibatch: means over this rank's samples (× share), then over all ranks'.
+  struct Minibatch {
+    double policy_loss = 0, value_loss = 0, approx_kl = 0, clip_frac = 0;
+  };
+
+  /// The actor's and critic's gradients of the samples `idx` (columns of `buf`) of a minibatch of
+  /// B_all samples, `share` = |idx| / B_all, into their grads(); returns the losses. The
+  /// critic's gradient does not depend on the actor's step, which the caller takes after both are
+  /// complete (and summed over ranks). In one process (share 1) the arithmetic is unscaled.
+  Minibatch minibatch_gradients(Policy& policy, const rl::RolloutBuffer<float>& buf, const std::vector<Index>& idx, Index B_all,
+                                double share, const PpoConfig& ppo) {
+    const bool scaled = share != 1.0;
+    rl::gather_columns(buf.policy_input, idx, x_);
+    rl::gather_columns(buf.actions, idx, act_);
+    rl::gather_columns(buf.obs, idx, cin_);
+    rl::gather_columns(ret_n_, idx, target_);
+    const Index B = static_cast<Index>(idx.size());
+    ms_.resize(static_cast<std::size_t>(B));
+    lp_old_.resize(B);
+    a_mb_.resize(B);
+    for (Index j = 0; j < B; ++j) {
+      const Index c = idx[static_cast<std::size_t>(j)];
+      lp_old_[j] = buf.log_probs[c];
+      a_mb_[j] = adv_[c];
+      ms_[static_cast<std::size_t>(j)] = buf.masks[static_cast<std::size_t>(c)];
+    }
+    policy.zero_grad();
+    const MatrixXf& mu = policy.forward_train(x_, ms_, cache_);
+    policy.log_prob(cache_, act_, lp_new_);
+    const auto sur = rl::clipped_surrogate<float>(lp_new_, lp_old_, a_mb_, ppo.clip, dlogp_);
+    if (scaled) dlogp_ *= static_cast<float>(share);
+    Policy::log_prob_mean_grad(cache_, act_, dlogp_, dmu_);
+    // action-bound penalty on the PD targets beyond ±π rad, as in stage 1 (target = offset +
+    // scale ⊙ μ̂, so ∂/∂μ̂ carries a factor scale; the identity's target is μ̂ itself); a mean
+    // over the whole minibatch
+    const float bound = static_cast<float>(M_PI), wb = static_cast<float>(ppo.action_bound_weight);
+    const tasks::ActionSpace& space = policy.actions();
+    if (space.identity()) {
+      dmu_.array() += wb / static_cast<float>(B_all) * ((mu.array() - bound).max(0.0f) + (mu.array() + bound).min(0.0f)) * 2.0f;
+    } else {
+      space.add_bound_penalty_grad(mu, bound, wb / static_cast<float>(B_all), bound_targets_, dmu_);
+    }
+    policy.backward(cache_, dmu_);
+    critic_.net.zero_grad();
+    critic_.normalize(cin_, norm_cin_);
+    const MatrixXf& v = critic_.net.forward_train(norm_cin_, critic_cache_);
+    vold_ = v;
+    const double vl = rl::value_loss<float>(v, vold_, target_, 0.0, dv_);
+    dv_ *= static_cast<float>(scaled ? ppo.critic_weight * share : ppo.critic_weight);
+    critic_.net.backward(critic_cache_, dv_, critic_.net.grads());
+    return {sur.loss, vl, sur.approx_kl, sur.clip_frac};
+  }
+
+  /// Sums the actor's (trainable blocks) and critic's gradients over ranks (one all-reduce) and
+  /// turns this rank's loss means into the minibatch's.
+  Minibatch sum_over_ranks(Collective& comm, Policy& policy, const Minibatch& mine, double share) {
+    std::vector<std::span<float>> grads;
+    for (nn::ParameterBlock<float>* b : policy.trainable_blocks()) {
+      auto g = b->grads();
+      grads.emplace_back(g.data(), static_cast<std::size_t>(g.size()));
+    }
+    auto gc = critic_.net.grads();
+    grads.emplace_back(gc.data(), static_cast<std::size_t>(gc.size()));
+    all_reduce_gradients(comm, grads, reduce_f_);
+    double m[4] = {mine.policy_loss * share, mine.value_loss * share, mine.approx_kl * share, mine.clip_frac * share};
+    comm.all_reduce_sum(std::span<double>(m, 4));
+    return {m[0], m[1], m[2], m[3]};
+  }
+
+  /// PopArt's update with the moments of all ranks' returns (K × n each): Σy and Σy² summed over
+  /// ranks, divided by the total count.
+  void update_popart_over_ranks(Collective& comm, const MatrixXf& returns) {
+    const MatrixXd y = returns.cast<double>();
+    std::vector<double> sums(static_cast<std::size_t>(2 * K_));
+    for (Index k = 0; k < K_; ++k) {
+      sums[static_cast<std::size_t>(k)] = y.row(k).sum();
+      sums[static_cast<std::size_t>(K_ + k)] = y.row(k).array().square().sum();
+    }
+    comm.all_reduce_sum(std::span<double>(sums));
+    const double count = static_cast<double>(returns.cols()) * comm.size();
+    const Eigen::Map<const VectorXd> s1(sums.data(), K_), s2(sums.data() + K_, K_);
+    popart_.update_from_moments(s1 / count, s2 / count, critic_.net);
+  }
+
   Index K_ = 1;
   rl::Critic<float> critic_;
   nn::PopArt<float> popart_;
@@ -174,6 +243,12 @@ class Stage2Learner {
   nn::InferenceWorkspace<float> ws_;
   nn::TrainCache<float> critic_cache_;
   MatrixXf vn_, scratch_, bound_targets_;
+  // update's buffers (sized on the first update, then reused)
+  RowVectorX<float> adv_, lp_old_, a_mb_, lp_new_, dlogp_;
+  MatrixXf ret_n_, x_, act_, cin_, norm_cin_, dmu_, dv_, target_, vold_;
+  std::vector<PartMask> ms_;
+  std::vector<Index> my_idx_;   ///< this rank's columns of the current minibatch
+  std::vector<float> reduce_f_; ///< gradients of one minibatch, packed for the all-reduce
 };
 
 }  // namespace maskadapt::train
