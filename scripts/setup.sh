@@ -4,7 +4,7 @@
 #
 #   scripts/setup.sh               # core packages + build
 #   scripts/setup.sh --with-torch  # also libtorch-dev (~800 MB) for the LibTorch benchmark peers
-#   scripts/setup.sh --with-mpi    # also libopenmpi-dev + openmpi-bin: `mpirun -np K maskadapt train-base`,
+#   scripts/setup.sh --with-mpi    # also libopenmpi-dev + openmpi-bin: `mpirun -np K maskadapt train-base` / `train-residual`,
 #                                  # maskadapt::mpi and tests/mpi (docs/distributed.md)
 #   scripts/setup.sh --with-plots  # also python3-matplotlib for scripts/plot_results.py (the figures in docs/)
 #   scripts/setup.sh --no-build    # packages only

@@ -6,7 +6,7 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 jobs=$(nproc)
 
-# --with-mpi: OpenMPI, so that tests/mpi (2 ranks under mpirun, ~5 s) run too
+# --with-mpi: OpenMPI, so that tests/mpi (2 ranks under mpirun, ~20 s) run too
 bash scripts/setup.sh --with-mpi
 # The web viewer (npm packages from its lock file, Debian's chromium for the e2e test). If this
 # fails (no npm registry), the viewer e2e test skips with a message instead of failing.

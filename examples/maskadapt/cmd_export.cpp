@@ -23,6 +23,7 @@
 #include <sstream>
 #include <string>
 #include <system_error>
+#include <utility>
 
 
 namespace {
@@ -81,15 +82,20 @@ void run_export(const ExportArgs& a) {
   const bool stage2 = training.contains("residual_config");
   // a stage-2 export: build the policy the evaluations will build from it, on the bundled
   // humanoid, before anything is written (every section's size is checked)
-  auto stage2_inputs = [](const Checkpoint& m) {
+  // (returns the policy's input and action counts)
+  auto stage2_dims = [](const Checkpoint& m) -> std::pair<Index, Index> {
     const ResidualTrainConfig c = check_residual_export(m);
     const Skeleton& skel = mujoco_character(c.rl.env.character, "env.character").skeleton;
-    return c.method == "adaptnet" ? stage2_policy_from_checkpoint<adapt::AdaptNetPolicy<float>>(m, skel).input_dim()
-                                  : stage2_policy_from_checkpoint<adapt::ResidualPolicy<float>>(m, skel).input_dim();
+    if (c.method == "adaptnet") {
+      const auto p = stage2_policy_from_checkpoint<adapt::AdaptNetPolicy<float>>(m, skel);
+      return {p.input_dim(), p.action_dim()};
+    }
+    const auto p = stage2_policy_from_checkpoint<adapt::ResidualPolicy<float>>(m, skel);
+    return {p.input_dim(), p.action_dim()};
   };
   if (stage2) {
     export_residual_policy(training, model, info);
-    (void)stage2_inputs(model);
+    (void)stage2_dims(model);
   } else {
     export_base_policy(training, model, info);
   }
@@ -104,10 +110,9 @@ void run_export(const ExportArgs& a) {
             << megabytes(a.out) << ", " << written.size() << " sections, policy only)\n"
             << "export: iteration " << counter("trainer/iteration") << ", samples " << counter("trainer/samples");
   if (stage2) {
-    const Index inputs = stage2_inputs(written);
+    const auto [inputs, actions] = stage2_dims(written);
     std::cout << ", task " << written.get_string("model/task") << ", method " << written.get_string("model/method")
-              << ", policy input " << inputs << ", actions "
-              << mujoco_character(check_residual_export(written).rl.env.character).skeleton.num_dofs() << "\n";
+              << ", policy input " << inputs << ", actions " << actions << "\n";
   } else {
     const ModelDims d = check_policy_export(written);
     std::cout << ", obs " << d.obs_dim << ", policy input " << d.policy_input_dim << ", actions " << d.action_dim << "\n";

@@ -10,10 +10,12 @@
 
 #include <maskadapt/core/collective.hpp>
 #include <maskadapt/tasks/location.hpp>
+#include <maskadapt/adapt/adaptnet_policy.hpp>
 #include <maskadapt/train/residual_trainer.hpp>
 
 #include <gtest/gtest.h>
 
+#include <concepts>
 #include <csignal>
 #include <iostream>
 #include <memory>
@@ -29,14 +31,17 @@ namespace stage2 = maskadapt::testing::stage2;
 namespace {
 
 /// One trainer of a stage-2 run on `comm` (4 envs in all): composition (ours), location (ours,
-/// with a discriminator on the whole body) or tracking (designated arms).
+/// with the composition discriminator; AdaptNet with it when Policy is AdaptNet's) or tracking
+/// (designated arms).
+template <class Policy = adapt::ResidualPolicy<float>>
 struct ResidualRun {
   stage2::Data data;
   TinyWalkerSim sim;
-  std::unique_ptr<ResidualTrainer<TinyWalkerSim>> trainer;
+  std::unique_ptr<ResidualTrainer<TinyWalkerSim, Policy>> trainer;
   ResidualRun(const std::string& task, Collective& comm, std::uint64_t seed = 5)
       : sim(static_cast<std::size_t>(4 / comm.size())) {
-    ResidualTrainConfig cfg = stage2::tiny_config(task, "ours");
+    constexpr bool adaptnet = std::same_as<Policy, adapt::AdaptNetPolicy<float>>;
+    ResidualTrainConfig cfg = stage2::tiny_config(task, adaptnet ? "adaptnet" : "ours");
     cfg.rl.run.seed = seed;
     cfg.rl.ppo.actor_lr_schedule = "adaptive";
     const auto parts = observation_parts(sim.skeleton());
@@ -56,14 +61,15 @@ struct ResidualRun {
       lc.first_env = first_env;  // (this rank's envs draw their one-process goals)
       setup.goal = tasks::LocationTask(lc, static_cast<Index>(sim.num_envs()));
     }
-    trainer = std::make_unique<ResidualTrainer<TinyWalkerSim>>(sim, stage2::upright(sim.skeleton()), stage2::tiny_base(sim.skeleton()),
+    trainer = std::make_unique<ResidualTrainer<TinyWalkerSim, Policy>>(sim, stage2::upright(sim.skeleton()), stage2::tiny_base(sim.skeleton()),
                                                                std::move(setup), cfg, nullptr, stage2::tiny_fall(sim.skeleton()),
                                                                &comm);
   }
 };
 
 /// Collective; rank 0 gets the whole checkpoint.
-Checkpoint snapshot(const ResidualTrainer<TinyWalkerSim>& t) {
+template <class Policy>
+Checkpoint snapshot(const ResidualTrainer<TinyWalkerSim, Policy>& t) {
   Checkpoint c;
   t.save(c);
   return c;
@@ -74,9 +80,10 @@ Checkpoint snapshot(const ResidualTrainer<TinyWalkerSim>& t) {
 // 2 ranks × 2 envs and 1 process × 4 envs, 3 iterations: the same training, to the float rounding
 // of sums formed in another order (per-rank GEMMs summed in rank order, normaliser and PopArt
 // moments merged from the ranks'); the figures are printed.
-TEST(DistributedResidual, TwoRanksFollowOneProcess) {
-  for (const std::string task : {"composition", "location"}) {
-    ResidualRun dist(task, world()), one(task, single_process());
+template <class Policy>
+void expect_two_ranks_follow_one_process(const std::string& task, const std::vector<std::string>& params) {
+  {
+    ResidualRun<Policy> dist(task, world()), one(task, single_process());
     EXPECT_EQ(dist.trainer->env_offset(), 2 * world().rank());
     // the envs start where envs 2r, 2r+1 of the one process start, with the same masks
     EXPECT_TRUE(dist.trainer->task().observations() ==
@@ -99,11 +106,11 @@ TEST(DistributedResidual, TwoRanksFollowOneProcess) {
       }
     }
     const Checkpoint d = snapshot(*dist.trainer), o = snapshot(*one.trainer);
-    if (!world().is_root()) continue;
+    if (!world().is_root()) return;
     double worst = 0;
     bool identical = true;
-    for (const char* name : {"residual/params", "critic/params", "disc/0/params", "popart/mean", "popart/nu"}) {
-      const bool dbl = std::string(name).starts_with("popart");
+    for (const std::string& name : params) {
+      const bool dbl = name.starts_with("popart");
       const VectorXd a = dbl ? d.get_vector<double>(name) : VectorXd(d.get_vector<float>(name).cast<double>());
       const VectorXd b = dbl ? o.get_vector<double>(name) : VectorXd(o.get_vector<float>(name).cast<double>());
       ASSERT_EQ(a.size(), b.size()) << name;
@@ -130,9 +137,22 @@ TEST(DistributedResidual, TwoRanksFollowOneProcess) {
   }
 }
 
+TEST(DistributedResidual, TwoRanksFollowOneProcess) {
+  for (const std::string task : {"composition", "location"})
+    expect_two_ranks_follow_one_process<adapt::ResidualPolicy<float>>(
+        task, {"residual/params", "critic/params", "disc/0/params", "popart/mean", "popart/nu"});
+}
+
+// AdaptNet (goal tasks only): its trainable blocks (embedding, goal net, LoRA, log σ) are
+// all-reduced like the residual's.
+TEST(DistributedResidual, AdaptNetOnTwoRanksFollowsOneProcess) {
+  expect_two_ranks_follow_one_process<adapt::AdaptNetPolicy<float>>(
+      "location", {"adaptnet/encoder", "adaptnet/embed", "adaptnet/log_std", "critic/params", "disc/0/params", "popart/mean", "popart/nu"});
+}
+
 // Two runs of the same layout (2 ranks × 2 envs) are bit-identical, every section.
 TEST(DistributedResidual, SameLayoutTwiceIsBitIdentical) {
-  ResidualRun a("location", world()), b("location", world());
+  ResidualRun<> a("location", world()), b("location", world());
   for (int it = 0; it < 3; ++it) {
     a.trainer->iterate();
     b.trainer->iterate();
@@ -145,12 +165,12 @@ TEST(DistributedResidual, SameLayoutTwiceIsBitIdentical) {
 // run 2 more: bit-identical to 4 straight iterations (composition, location, tracking).
 TEST(DistributedResidual, ResumeOnTheSameRanksIsBitExact) {
   for (const std::string task : {"composition", "location", "tracking"}) {
-    ResidualRun straight(task, world());
+    ResidualRun<> straight(task, world());
     for (int it = 0; it < 4; ++it) straight.trainer->iterate();
-    ResidualRun first(task, world());
+    ResidualRun<> first(task, world());
     for (int it = 0; it < 2; ++it) first.trainer->iterate();
     const Checkpoint at2 = on_every_rank(snapshot(*first.trainer));
-    ResidualRun resumed(task, world(), /*seed=*/7);
+    ResidualRun<> resumed(task, world(), /*seed=*/7);
     resumed.trainer->load(at2);
     EXPECT_EQ(resumed.trainer->iteration(), 2) << task;
     for (int it = 0; it < 2; ++it) resumed.trainer->iterate();
@@ -169,10 +189,10 @@ TEST(DistributedResidual, ResumeOnTheSameRanksIsBitExact) {
 // A 2-rank checkpoint is refused by one process, and a one-process checkpoint by 2 ranks, with an
 // error that says what to do.
 TEST(DistributedResidual, ACheckpointOfAnotherRankCountIsRefused) {
-  ResidualRun dist("composition", world());
+  ResidualRun<> dist("composition", world());
   dist.trainer->iterate();
   const Checkpoint c = on_every_rank(snapshot(*dist.trainer));
-  ResidualRun one("composition", single_process());
+  ResidualRun<> one("composition", single_process());
   try {
     one.trainer->load(c);
     ADD_FAILURE() << "expected an error";
@@ -196,7 +216,7 @@ TEST(DistributedResidual, ACheckpointOfAnotherRankCountIsRefused) {
 // the job and names the rank; the checkpoint stays.
 TEST(ResidualRankFailure, KillRankOneAfterACheckpoint) {
   if (fault_dir().empty()) GTEST_SKIP() << "run by tests/mpi/rank_failure.cmake";
-  ResidualRun dist("location", world());
+  ResidualRun<> dist("location", world());
   for (int it = 0; it < 2; ++it) dist.trainer->iterate();
   dist.trainer->save(fault_dir() + "/residual_checkpoint.bin");
   world().barrier();
@@ -213,7 +233,7 @@ TEST(ResidualRankFailure, TheLastCheckpointResumes) {
   const Checkpoint c = load_checkpoint(fault_dir() + "/residual_checkpoint.bin");
   EXPECT_EQ(c.get_int("trainer/iteration"), 2);
   EXPECT_EQ(c.get_int("dist/ranks"), 2);
-  ResidualRun resumed("location", world()), straight("location", world());
+  ResidualRun<> resumed("location", world()), straight("location", world());
   resumed.trainer->load(c);
   for (int it = 0; it < 3; ++it) straight.trainer->iterate();
   EXPECT_EQ(resumed.trainer->iterate().iteration, 3);

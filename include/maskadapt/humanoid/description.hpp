@@ -21,6 +21,7 @@
 #include <maskadapt/motion/skeleton.hpp>
 
 #include <array>
+#include <string>
 #include <string_view>
 #include <vector>
 
@@ -108,6 +109,14 @@ struct HumanoidDescription {
     return k;
   }
 };
+
+/// The reference humanoid's fall criteria (sim/termination.hpp): the bodies that may touch the
+/// ground without a fall — feet, toes, hands — and the head whose height is checked. The
+/// imitation task's default and the humanoid's MuJoCo character both read them from here.
+inline std::vector<std::string> humanoid_ground_contacts() { return {"L_Ankle", "R_Ankle", "L_Toe", "R_Toe", "L_Wrist", "R_Wrist"}; }
+inline std::string humanoid_head() { return "Head"; }
+/// The bodies that strike (tasks/strike.hpp): the hands.
+inline std::vector<std::string> humanoid_hands() { return {"L_Wrist", "R_Wrist"}; }
 
 namespace detail {
 

@@ -5,10 +5,10 @@
 /// An env has fallen when any body that is not allowed to touch the ground does (by default
 /// everything except feet, toes and hands), or when the head is below `min_head_height`.
 #include <maskadapt/core/error.hpp>
+#include <maskadapt/humanoid/description.hpp>
 #include <maskadapt/motion/skeleton.hpp>
 #include <maskadapt/sim/simulator.hpp>
 
-#include <initializer_list>
 #include <string>
 #include <vector>
 
@@ -19,15 +19,14 @@ struct FallCriteria {
   int head = -1;                              ///< body whose height is checked (−1: none)
   double min_head_height = 0.4;               ///< m; fallen if head z < this
 
-  /// Criteria for a skeleton: contacts allowed for the named bodies, head height for `head_name`.
-  /// The defaults fit the reference humanoid (feet, toes, hands; "Head").
-  static FallCriteria for_skeleton(const Skeleton& skel,
-                                   std::initializer_list<const char*> allowed = {"L_Ankle", "R_Ankle", "L_Toe",
-                                                                                 "R_Toe", "L_Wrist", "R_Wrist"},
-                                   const std::string& head_name = "Head", double min_head_height = 0.4) {
+  /// Criteria for a skeleton: contacts allowed for the named bodies, head height for `head_name`
+  /// (none when empty). The defaults are the reference humanoid's (humanoid/description.hpp: feet,
+  /// toes, hands; "Head"). Unknown names throw naming them.
+  static FallCriteria for_skeleton(const Skeleton& skel, const std::vector<std::string>& allowed = humanoid_ground_contacts(),
+                                   const std::string& head_name = humanoid_head(), double min_head_height = 0.4) {
     FallCriteria c;
     c.contact_allowed.assign(static_cast<std::size_t>(skel.num_bodies()), 0);
-    for (const char* name : allowed) c.contact_allowed[static_cast<std::size_t>(skel.index_of(name))] = 1;
+    for (const std::string& name : allowed) c.contact_allowed[static_cast<std::size_t>(skel.index_of(name))] = 1;
     c.head = head_name.empty() ? -1 : skel.index_of(head_name);
     c.min_head_height = min_head_height;
     return c;

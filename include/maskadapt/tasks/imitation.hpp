@@ -106,7 +106,8 @@ class ImitationTask {
         sampler_(MaskSampler::random(cfg_.mask_prob, cfg_.max_masked_parts)) {
     require(static_cast<bool>(reset_sampler_), "no reset sampler given", {{}, {}, "reset_sampler"});
     require(sim.control_dt() > 0, "the simulator's control_dt must be > 0", {{}, {}, "control_dt"});
-    if (!cfg_.fall) cfg_.fall = FallCriteria::for_skeleton(sim.skeleton(), {"L_Ankle", "R_Ankle", "L_Toe", "R_Toe", "L_Wrist", "R_Wrist"}, "Head", cfg_.min_head_height);
+    if (!cfg_.fall)  // (the reference humanoid's, humanoid/description.hpp)
+      cfg_.fall = FallCriteria::for_skeleton(sim.skeleton(), humanoid_ground_contacts(), humanoid_head(), cfg_.min_head_height);
     require(cfg_.episode_seconds > 0, "episode_seconds must be > 0", {{}, {}, "episode_seconds"});
     cfg_.actions.validate(sim.skeleton().num_dofs(), "ImitationTaskConfig.actions");
     const Index n = num_envs();

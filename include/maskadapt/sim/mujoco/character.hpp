@@ -70,12 +70,7 @@ struct MujocoCharacter {
   /// Fall criteria: a ground contact of any body not in `ground_contacts`, or the head body's
   /// origin below `min_head_height` (m; the trainers pass env.termination_height).
   FallCriteria fall_criteria(double min_head_height) const {
-    FallCriteria c;
-    c.contact_allowed.assign(static_cast<std::size_t>(skeleton.num_bodies()), 0);
-    for (const auto& b : ground_contacts) c.contact_allowed[static_cast<std::size_t>(skeleton.index_of(b))] = 1;
-    c.head = head.empty() ? -1 : skeleton.index_of(head);
-    c.min_head_height = min_head_height;
-    return c;
+    return FallCriteria::for_skeleton(skeleton, ground_contacts, head, min_head_height);
   }
   /// Throws unless the parts agree with each other (sizes, names, physics step).
   void validate() const {
@@ -114,9 +109,9 @@ inline MujocoCharacter mujoco_character(const HumanoidDescription& d) {
   c.substeps = d.substeps;
   c.standing = KinematicState::zero(d.skeleton);
   c.standing.root_pos = Vec3(0, 0, d.root_height);
-  c.ground_contacts = {"L_Ankle", "R_Ankle", "L_Toe", "R_Toe", "L_Wrist", "R_Wrist"};
-  c.head = "Head";
-  c.hands = {"L_Wrist", "R_Wrist"};
+  c.ground_contacts = humanoid_ground_contacts();
+  c.head = humanoid_head();
+  c.hands = humanoid_hands();
   c.validate();
   return c;
 }
