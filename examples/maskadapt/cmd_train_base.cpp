@@ -2,6 +2,7 @@
 #include "stop_signals.hpp"
 #include "cli_checks.hpp"
 #include "command_registry.hpp"
+#include "rank_envs.hpp"
 
 #include <maskadapt/core/blas_threads.hpp>
 #include <maskadapt/core/checkpoint.hpp>
@@ -89,12 +90,7 @@ void run_train_base(const TrainBaseArgs& a) {
 #else
   const MujocoCharacter& character = mujoco_character(cfg.env.character, "env.character");
   auto lib = load_motion_library(cfg.env.motions, motion_data_dir(MASKADAPT_SOURCE_DIR "/../shared/data"), character);
-  if (world.distributed())
-    require(cfg.env.num_envs % world.size() == 0,
-            std::to_string(cfg.env.num_envs) + " envs do not split evenly over " + std::to_string(world.size()) +
-                " ranks (each rank steps env.num_envs / ranks of them); choose --envs as a multiple of the rank count",
-            {{}, std::nullopt, "--envs"});
-  const auto envs_here = static_cast<std::size_t>(cfg.env.num_envs / world.size());
+  const std::size_t envs_here = cli::envs_per_rank(world, cfg.env.num_envs);
   out << "train-base: " << character.name << " (" << character.skeleton.num_dofs() << " DoF), " << lib->num_clips()
       << " clip(s), " << lib->total_duration() << " s of motion; "
             << cfg.env.num_envs << " envs, preset " << cfg.preset << ", masking " << (cfg.mask.enabled ? "on" : "off")

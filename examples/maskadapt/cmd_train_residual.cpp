@@ -6,6 +6,7 @@
 #include "stop_signals.hpp"
 #include "cli_checks.hpp"
 #include "command_registry.hpp"
+#include "rank_envs.hpp"
 
 #include <maskadapt/core/blas_threads.hpp>
 #include <maskadapt/core/checkpoint.hpp>
@@ -292,12 +293,7 @@ void run_train_residual(const Args& a) {
   auto base_lib = load_motion_library(c.rl.env.motions, data_dir(), character);
   std::shared_ptr<MotionLibrary> new_lib =
       c.task != "tracking" && !c.new_motions.empty() ? load_motion_library(c.new_motions, data_dir(), character) : base_lib;
-  if (world.distributed())
-    require(c.rl.env.num_envs % world.size() == 0,
-            std::to_string(c.rl.env.num_envs) + " envs do not split evenly over " + std::to_string(world.size()) +
-                " ranks (each rank steps env.num_envs / ranks of them); choose --envs as a multiple of the rank count",
-            {{}, std::nullopt, "--envs"});
-  const auto envs_here = static_cast<std::size_t>(c.rl.env.num_envs / world.size());
+  const std::size_t envs_here = cli::envs_per_rank(world, c.rl.env.num_envs);
   const Index first_env = static_cast<Index>(envs_here) * world.rank();
   ThreadPool pool(static_cast<std::size_t>(c.rl.run.threads));
   MujocoHumanoidSim sim(envs_here, pool, character, task_objects(c.task));
