@@ -2,6 +2,11 @@
 
 #include <gtest/gtest.h>
 
+#include <cstring>
+
+#include <maskadapt/core/thread_pool.hpp>
+#include <maskadapt/nn/chunks.hpp>
+
 using namespace maskadapt;
 using namespace maskadapt::rl;
 
@@ -74,6 +79,54 @@ TEST(GradientPenalty, LeadingColumnsOfAJointPassEqualTheirOwnPass) {
     EXPECT_LT((g_both - g_real).cwiseAbs().maxCoeff(), 1e-12) << nn::to_string(a);
     EXPECT_GT(g_real.cwiseAbs().maxCoeff(), 1e-3);
     EXPECT_THROW(gradient_penalty(net, c_both, 5, 3.0, g_both, ws, nullptr, 8), Error);
+  }
+}
+
+// At the discriminator's sizes the products run in the Mlp's chunks on a pool (nn/chunks.hpp):
+// still the finite-difference gradient (sampled parameters of every layer), and the same bits
+// for no pool and pools of 1, 2 and 3 threads.
+TEST(GradientPenalty, ChunkedOnAPoolMatchesFiniteDifferencesAndAnyPoolGivesTheSameBits) {
+  using nn::Activation;
+  for (Activation a : {Activation::ReLU, Activation::Tanh}) {
+    Rng rng(23);
+    nn::Mlp<double> net(nn::MlpSpec{300, {256, 128}, 1, a}, rng);
+    ASSERT_TRUE(nn::worth_chunking(256, 300, 192) && nn::worth_chunking(128, 256, 192));  // both layers split
+    const MatrixXd x = MatrixXd::NullaryExpr(300, 192, [&] { return rng.normal(); });
+    const Index rows = 290;
+    const double weight = 5.0;
+    auto run = [&](ThreadPool* pool, VectorXd& grad) {
+      nn::TrainCache<double> cache;
+      cache.pool = pool;
+      net.forward_train(x, cache);
+      grad = VectorXd::Zero(net.num_params());
+      GradientPenaltyWorkspace<double> ws;
+      return gradient_penalty(net, cache, rows, weight, grad, ws, nullptr, 160);  // leading columns too
+    };
+    VectorXd grad;
+    const double P = run(nullptr, grad);
+    const MatrixXd x_real = x.leftCols(160);
+    EXPECT_NEAR(P, penalty(net, x_real, rows, weight), 1e-12 * std::max(1.0, P)) << nn::to_string(a);
+    for (std::size_t threads : {1, 2, 3}) {
+      ThreadPool pool(threads);
+      VectorXd g_pool;
+      const double P_pool = run(&pool, g_pool);
+      EXPECT_EQ(0, std::memcmp(&P, &P_pool, sizeof(double))) << threads << " threads";
+      EXPECT_EQ(0, std::memcmp(grad.data(), g_pool.data(), sizeof(double) * static_cast<std::size_t>(grad.size())))
+          << nn::to_string(a) << ", " << threads << " threads";
+    }
+    double max_err = 0;
+    const double h = 1e-6;
+    for (int s = 0; s < 40; ++s) {
+      const Index k = static_cast<Index>(rng.uniform_int(static_cast<std::uint64_t>(net.num_params())));
+      nn::Mlp<double> p = net;
+      p.params()[k] += h;
+      const double lp = penalty(p, x_real, rows, weight);
+      p.params()[k] -= 2 * h;
+      const double fd = (lp - penalty(p, x_real, rows, weight)) / (2 * h);
+      max_err = std::max(max_err, std::abs(fd - grad[k]) / std::max(1.0, std::abs(fd)));
+    }
+    EXPECT_LT(max_err, 1e-6) << nn::to_string(a);
+    EXPECT_GT(grad.cwiseAbs().maxCoeff(), 1e-6);
   }
 }
 

@@ -22,7 +22,9 @@
 /// δ_l is exactly zero: that last pass adds nothing and is skipped (a third of the penalty's GEMMs).
 #include <maskadapt/core/error.hpp>
 #include <maskadapt/core/types.hpp>
+#include <maskadapt/core/thread_pool.hpp>
 #include <maskadapt/nn/activation.hpp>
+#include <maskadapt/nn/chunks.hpp>
 #include <maskadapt/nn/mlp.hpp>
 
 #include <type_traits>
@@ -69,16 +71,29 @@ double gradient_penalty(const nn::Mlp<T>& net, const nn::TrainCache<T>& cache, I
   const auto Lz = static_cast<std::size_t>(L);
   for (auto* v : {&w.g, &w.q, &w.qbar, &w.zbar, &w.fp, &w.fpp, &w.gbar, &w.delta}) v->resize(Lz);
 
+  // The products run in the Mlp's fixed chunks (nn/chunks.hpp) on the cache's pool, each with its
+  // element-wise epilogue: bit-identical for any pool size, including none.
+  ThreadPool* pool = cache.pool ? cache.pool : nn::default_pool();
+
   // Input gradient: g_{L−1} = 1; q_l = W_lᵀ g_l; g_{l−1} = f'(z_{l−1}) ⊙ q_l (f'_l kept in fp[l]).
   w.g[Lz - 1].setOnes(1, B);
   for (Index l = L - 1; l >= 0; --l) {
     const auto i = static_cast<std::size_t>(l);
-    w.q[i].noalias() = net.weight(l).transpose() * w.g[i];
+    const Index out = spec.layer_outputs(l), in = spec.layer_inputs(l);
+    w.q[i].resize(in, B);
     if (l > 0) {
-      w.fp[i - 1].resize(pre(l - 1).rows(), B);
-      nn::activation_derivative<T>(act(l - 1), pre(l - 1), w.fp[i - 1]);
-      w.g[i - 1] = w.fp[i - 1].cwiseProduct(w.q[i]);
+      w.fp[i - 1].resize(in, B);
+      w.g[i - 1].resize(in, B);
     }
+    const auto W = net.weight(l);
+    nn::for_each_block(pool, in, B, nn::worth_chunking(in, out, B), [&](Index r0, Index nr, Index c0, Index nc) {
+      auto q = w.q[i].block(r0, c0, nr, nc);
+      q.noalias() = W.middleCols(r0, nr).transpose() * w.g[i].middleCols(c0, nc);
+      if (l == 0) return;
+      auto fp = w.fp[i - 1].block(r0, c0, nr, nc);
+      nn::activation_derivative<T>(act(l - 1), pre(l - 1).block(r0, c0, nr, nc), fp);
+      w.g[i - 1].block(r0, c0, nr, nc) = fp.cwiseProduct(q);
+    });
   }
   const auto u = w.q[0].topRows(penalised_rows);  // S ∂d/∂x (penalised_rows × B)
   const double sq = static_cast<double>(u.squaredNorm());
@@ -91,19 +106,34 @@ double gradient_penalty(const nn::Mlp<T>& net, const nn::TrainCache<T>& cache, I
   w.qbar[0].topRows(penalised_rows) = static_cast<T>(2.0 * weight / static_cast<double>(B)) * u;
   for (Index l = 0; l < L; ++l) {
     const auto i = static_cast<std::size_t>(l);
-    Eigen::Map<MatrixX<T>> gW(grad.data() + net.weight_offset(l), spec.layer_outputs(l), spec.layer_inputs(l));
-    gW.noalias() += w.g[i] * w.qbar[i].transpose();
+    const Index out = spec.layer_outputs(l), in = spec.layer_inputs(l);
+    const bool split = nn::worth_chunking(out, in, B);  // both products below are out·in·B
+    Eigen::Map<MatrixX<T>> gW(grad.data() + net.weight_offset(l), out, in);
+    nn::for_each_block(pool, out, in, split, [&](Index r0, Index nr, Index c0, Index nc) {
+      gW.block(r0, c0, nr, nc).noalias() += w.g[i].middleRows(r0, nr) * w.qbar[i].middleRows(c0, nc).transpose();
+    }, /*rows_on_tie=*/true);
     if (l == L - 1) {
-      if (!piecewise_linear) w.zbar[i].setZero(spec.layer_outputs(l), B);  // f'' of the identity output is 0
+      if (!piecewise_linear) w.zbar[i].setZero(out, B);  // f'' of the identity output is 0
       break;  // (ḡ of the output layer feeds nothing)
     }
-    w.gbar[i].noalias() = net.weight(l) * w.qbar[i];  // ḡ_l (out_l × B)
+    // ḡ_l = W_l q̄_l (out_l × B), then q̄_{l+1} = f'_l(z_l) ⊙ ḡ_l (and z̄_l) block by block
+    w.gbar[i].resize(out, B);
+    w.qbar[i + 1].resize(out, B);
     if (!piecewise_linear) {
-      w.fpp[i].resize(pre(l).rows(), B);
-      nn::activation_second_derivative<T>(act(l), pre(l), w.fpp[i]);
-      w.zbar[i] = w.fpp[i].cwiseProduct(w.q[i + 1]).cwiseProduct(w.gbar[i]);
+      w.fpp[i].resize(out, B);
+      w.zbar[i].resize(out, B);
     }
-    w.qbar[i + 1] = w.fp[i].cwiseProduct(w.gbar[i]);
+    const auto W = net.weight(l);
+    nn::for_each_block(pool, out, B, split, [&](Index r0, Index nr, Index c0, Index nc) {
+      auto gbar = w.gbar[i].block(r0, c0, nr, nc);
+      gbar.noalias() = W.middleRows(r0, nr) * w.qbar[i].middleCols(c0, nc);
+      if (!piecewise_linear) {
+        auto fpp = w.fpp[i].block(r0, c0, nr, nc);
+        nn::activation_second_derivative<T>(act(l), pre(l).block(r0, c0, nr, nc), fpp);
+        w.zbar[i].block(r0, c0, nr, nc) = fpp.cwiseProduct(w.q[i + 1].block(r0, c0, nr, nc)).cwiseProduct(gbar);
+      }
+      w.qbar[i + 1].block(r0, c0, nr, nc) = w.fp[i].block(r0, c0, nr, nc).cwiseProduct(gbar);
+    });
   }
   if (piecewise_linear) return P;  // every z̄_l is 0, so is every δ_l
   // Reverse through the forward graph with z̄ injected at every layer.
