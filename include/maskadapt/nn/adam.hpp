@@ -14,6 +14,7 @@
 ///
 /// The moments live in each ParameterBlock (adam_m, adam_v), so the optimiser object itself only
 /// holds hyper-parameters and the step counter (checkpoint both).
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <initializer_list>
@@ -82,10 +83,7 @@ class Adam {
     validate();
     AdamStepResult r;
     double sq = 0.0;
-    for (std::size_t k = 0; k < count; ++k) {
-      const auto g = blocks[k]->grads();
-      for (Index i = 0; i < g.size(); ++i) sq += static_cast<double>(g[i]) * static_cast<double>(g[i]);
-    }
+    for (std::size_t k = 0; k < count; ++k) sq += sum_of_squares(blocks[k]->grads());
     r.grad_norm = std::sqrt(sq);
     if (!std::isfinite(r.grad_norm)) return r;  // leave everything untouched
     if (config_.max_grad_norm > 0) {
@@ -105,23 +103,41 @@ class Adam {
     const T decay = static_cast<T>(1.0 - config_.lr * config_.weight_decay);
     const bool l2 = config_.weight_decay != 0 && !config_.decoupled_weight_decay;
     const bool decoupled = config_.weight_decay != 0 && config_.decoupled_weight_decay;
+    // Element-wise, in L1-sized segments, as array expressions (vectorised: std::sqrt in a plain
+    // loop is not, because of errno); each element's arithmetic is the scalar formula's, in its order.
+    constexpr Index kSegment = 2048;
     for (std::size_t k = 0; k < count; ++k) {
-      auto p = blocks[k]->params();
-      const auto g = blocks[k]->grads();
-      auto m = blocks[k]->adam_m();
-      auto v = blocks[k]->adam_v();
-      for (Index i = 0; i < p.size(); ++i) {
-        T gi = g[i];
-        if (l2) gi += wd * p[i];
-        if (decoupled) p[i] *= decay;
-        m[i] += (gi - m[i]) * (T(1) - b1);  // torch: exp_avg.lerp_(grad, 1 - beta1)
-        v[i] = v[i] * b2 + (T(1) - b2) * gi * gi;
-        const T denom = std::sqrt(v[i]) / bc2_sqrt + eps;
-        p[i] -= step_size * m[i] / denom;
+      const Index n = blocks[k]->size();
+      for (Index s0 = 0; s0 < n; s0 += kSegment) {
+        const Index len = std::min(kSegment, n - s0);
+        auto p = blocks[k]->params().segment(s0, len).array();
+        const auto g = blocks[k]->grads().segment(s0, len).array();
+        auto m = blocks[k]->adam_m().segment(s0, len).array();
+        auto v = blocks[k]->adam_v().segment(s0, len).array();
+        // g_i (+ wd·θ_i before this step's update: Adam's L2), then the moments, then θ
+        auto moments_and_step = [&](const auto& gi) {
+          m += (gi - m) * (T(1) - b1);  // torch: exp_avg.lerp_(grad, 1 - beta1)
+          v = v * b2 + (T(1) - b2) * gi * gi;
+          p -= step_size * m / (v.sqrt() / bc2_sqrt + eps);
+        };
+        if (decoupled) p *= decay;
+        if (l2) moments_and_step(g + wd * p);
+        else moments_and_step(g);
       }
     }
     r.applied = true;
     return r;
+  }
+
+  /// Σ gᵢ² in double, in four interleaved partial sums (a fixed order: the same bits on every
+  /// call and thread count; one running sum would be a chain of dependent additions).
+  static double sum_of_squares(const Eigen::Map<VectorX<T>>& g) {
+    double lane[4] = {0, 0, 0, 0};
+    const Index n = g.size(), n4 = n / 4 * 4;
+    for (Index i = 0; i < n4; i += 4)
+      for (int k = 0; k < 4; ++k) lane[k] += static_cast<double>(g[i + k]) * static_cast<double>(g[i + k]);
+    for (Index i = n4; i < n; ++i) lane[i - n4] += static_cast<double>(g[i]) * static_cast<double>(g[i]);
+    return (lane[0] + lane[1]) + (lane[2] + lane[3]);
   }
 
   AdamConfig config_;
