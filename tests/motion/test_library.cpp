@@ -10,6 +10,8 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstring>
+#include <vector>
 #include <numbers>
 
 using namespace maskadapt;
@@ -34,6 +36,25 @@ MotionClip closed_form_clip() {
   return c;
 }
 }  // namespace
+
+// wrap_angle's fast path for angles already in (−π, π] returns what the remainder formula does,
+// bit for bit, at the boundaries and across many turns.
+TEST(Rotation, WrapAngleIsTheRemainderFormulaBitForBit) {
+  auto reference = [](double a) {
+    a = std::remainder(a, 2.0 * kPi);
+    return a <= -kPi ? a + 2.0 * kPi : a;
+  };
+  std::vector<double> angles = {0.0, -0.0, 1e-300, kPi, -kPi, 2 * kPi, -2 * kPi, 3 * kPi, -3 * kPi, 1e6, -1e6};
+  for (double a : {kPi, -kPi, 3 * kPi})
+    for (double dir : {-1e9, 1e9}) angles.push_back(std::nextafter(a, dir));
+  Rng rng(3);
+  for (int k = 0; k < 10000; ++k) angles.push_back(rng.uniform(-25.0, 25.0));
+  for (double a : angles) {
+    const double got = wrap_angle(a), want = reference(a);
+    EXPECT_EQ(0, std::memcmp(&got, &want, sizeof(double))) << std::hexfloat << a;
+    EXPECT_TRUE(got > -kPi && got <= kPi) << std::hexfloat << a;
+  }
+}
 
 TEST(MotionLibrary, InterpolationAndVelocitiesMatchClosedForms) {
   MotionLibrary lib(humanoid_skeleton());

@@ -13,6 +13,8 @@ namespace maskadapt {
 
 /// Wraps an angle to (−π, π].
 inline double wrap_angle(double a) {
+  // (−π, π] already: what std::remainder returns there (the nearest multiple of 2π is 0), without its cost
+  if (a > -std::numbers::pi && a <= std::numbers::pi) return a;
   a = std::remainder(a, 2.0 * std::numbers::pi);
   return a <= -std::numbers::pi ? a + 2.0 * std::numbers::pi : a;
 }

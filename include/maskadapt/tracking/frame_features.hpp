@@ -19,6 +19,7 @@
 /// training signals that make the networks learn the kinematics.
 #include <maskadapt/core/error.hpp>
 #include <maskadapt/core/types.hpp>
+#include <maskadapt/motion/rotation.hpp>
 #include <maskadapt/motion/skeleton.hpp>
 #include <maskadapt/tracking/generator.hpp>
 
@@ -48,11 +49,6 @@ inline Quat rotation_from_6d(const Eigen::Ref<const Eigen::Matrix<double, 6, 1>>
   R.col(1) = b;
   R.col(2) = a.cross(b);
   return Quat(R).normalized();
-}
-
-inline double wrap_angle(double a) {
-  a = std::remainder(a, 2.0 * std::numbers::pi);
-  return a <= -std::numbers::pi ? a + 2.0 * std::numbers::pi : a;
 }
 
 /// Offsets of the feature blocks for a skeleton.
