@@ -7,8 +7,10 @@
 //    MuJoCo humanoid.
 //  - BM_UpdateGemmFloor: the same update's matrix products — every forward, backward and penalty
 //    product of the networks at their real shapes and counts (update_gemms below) — run bare,
-//    one after another, on one thread. The ratio BM_Update / BM_UpdateGemmFloor (threads 1) is
-//    how far the update is from doing nothing but its GEMMs.
+//    one after another: chunks:0 each product whole on one thread; chunks:1 cut into the Mlp's
+//    chunks (nn/chunks.hpp) and run on a pool of 1 or 2 threads, as the trainer runs them. The
+//    ratio BM_Update / BM_UpdateGemmFloor at the same thread count is how far the update is from
+//    doing nothing but its GEMMs; the floor's own 1 → 2 thread ratio is what the products allow.
 //  - BM_RealWindows: 512 real discriminator windows (the batch of one discriminator step) from
 //    the library, shared poses (MotionLibrary::amp_window) vs every frame's central difference
 //    on its own (the peer: 15 interpolated poses per window instead of 7).
@@ -133,6 +135,8 @@ void BM_Update(benchmark::State& state) {
 BENCHMARK(BM_Update)->Arg(1)->Arg(2)->ArgNames({"threads"})->Unit(benchmark::kMillisecond)->UseRealTime();
 
 void BM_UpdateGemmFloor(benchmark::State& state) {
+  const bool chunked = state.range(0) == 1;
+  const auto threads = static_cast<std::size_t>(state.range(1));
   Setup s(1);  // (for the networks' shapes)
   const BaseTrainConfig& c = s.trainer.config();
   const BasePolicy& p = s.trainer.policy();
@@ -150,14 +154,23 @@ void BM_UpdateGemmFloor(benchmark::State& state) {
     o.out = Eigen::MatrixXf::Zero(g.m, g.n);
     ops.push_back(std::move(o));
   }
+  ThreadPool pool(threads);
   for (auto _ : state) {
     for (std::size_t i = 0; i < gemms.size(); ++i) {
       auto& o = ops[i];
-      switch (gemms[i].kind) {
-        case Gemm::NN: o.out.noalias() = o.a * o.b; break;
-        case Gemm::NT: o.out.noalias() += o.a * o.b.transpose(); break;
-        case Gemm::TN: o.out.noalias() = o.a.transpose() * o.b; break;
-      }
+      const Gemm& g = gemms[i];
+      // the block (r0, nr) × (c0, nc) of the result, as one single-threaded GEMM
+      auto block = [&](Index r0, Index nr, Index c0, Index nc) {
+        auto out = o.out.block(r0, c0, nr, nc);
+        switch (g.kind) {
+          case Gemm::NN: out.noalias() = o.a.middleRows(r0, nr) * o.b.middleCols(c0, nc); break;
+          case Gemm::NT: out.noalias() += o.a.middleRows(r0, nr) * o.b.middleRows(c0, nc).transpose(); break;
+          case Gemm::TN: out.noalias() = o.a.middleCols(r0, nr).transpose() * o.b.middleCols(c0, nc); break;
+        }
+      };
+      if (!chunked) block(0, g.m, 0, g.n);
+      else  // the Mlp's partition (nn/chunks.hpp): weight gradients split by rows on a tie
+        nn::for_each_block(&pool, g.m, g.n, nn::worth_chunking(g.m, g.k, g.n), block, g.kind == Gemm::NT);
     }
     benchmark::ClobberMemory();
   }
@@ -166,7 +179,15 @@ void BM_UpdateGemmFloor(benchmark::State& state) {
   state.counters["gemms"] = static_cast<double>(gemms.size());
   state.counters["GFLOP_per_update"] = flops * 1e-9;
 }
-BENCHMARK(BM_UpdateGemmFloor)->Unit(benchmark::kMillisecond)->UseRealTime();
+// chunks:0 — every product whole on one thread (the floor of BM_Update/threads:1); chunks:1 — cut
+// into the Mlp's chunks and run on a pool of 1 or 2 threads (the floor of BM_Update/threads:2).
+BENCHMARK(BM_UpdateGemmFloor)
+    ->Args({0, 1})
+    ->Args({1, 1})
+    ->Args({1, 2})
+    ->ArgNames({"chunks", "threads"})
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
 
 /// The peer of MotionLibrary::amp_window: every frame's pose and central difference on its own.
 void amp_window_per_frame(const MotionLibrary& lib, int clip, double t_end, Eigen::Ref<VectorXf> out) {
