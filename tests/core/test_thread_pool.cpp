@@ -5,6 +5,8 @@
 #include <gtest/gtest.h>
 
 #include <atomic>
+#include <chrono>
+#include <thread>
 #include <vector>
 
 using namespace maskadapt;
@@ -16,6 +18,27 @@ TEST(ThreadPool, EveryIndexRunsExactlyOnce) {
     pool.parallel_for(0, hits.size(), [&](std::size_t i) { hits[i]++; });
     for (auto& h : hits) ASSERT_EQ(h.load(), 1) << threads << " threads";
   }
+}
+
+TEST(ThreadPool, ASlowIndexDoesNotHoldUpTheRestOfItsHalf) {
+  // Index 0 blocks until indices 8…63 have run. With the range split statically in halves,
+  // 8…31 would sit behind it on the same thread (it would time out); with stealing, the other
+  // thread takes them in grains of 32 / 8 = 4 once its own half is done.
+  ThreadPool pool(2);
+  constexpr std::size_t n = 64, first_awaited = 8;
+  std::atomic<std::size_t> done{0};
+  bool saw_all = false;
+  pool.parallel_for(0, n, [&](std::size_t i) {
+    if (i == 0) {
+      const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(10);
+      while (done.load() < n - first_awaited && std::chrono::steady_clock::now() < deadline)
+        std::this_thread::sleep_for(std::chrono::microseconds(200));
+      saw_all = done.load() >= n - first_awaited;
+    } else if (i >= first_awaited) {
+      done++;
+    }
+  });
+  EXPECT_TRUE(saw_all) << "indices " << first_awaited << "…" << n - 1 << " waited behind the slow index 0";
 }
 
 TEST(ThreadPool, PerIndexStreamsGiveThreadCountIndependentResults) {

@@ -102,7 +102,9 @@ void expect_two_ranks_follow_one_process(const std::string& task, const std::vec
       if (task == "location") {
         EXPECT_NEAR(sd.extra.at("location_reward"), so.extra.at("location_reward"), 1e-5) << task;
         EXPECT_EQ(sd.extra.count("trials"), so.extra.count("trials")) << task;
-        if (so.extra.count("trials")) EXPECT_EQ(sd.extra.at("trials"), so.extra.at("trials")) << task;
+        if (so.extra.count("trials")) {
+          EXPECT_EQ(sd.extra.at("trials"), so.extra.at("trials")) << task;
+        }
       }
     }
     const Checkpoint d = snapshot(*dist.trainer), o = snapshot(*one.trainer);
