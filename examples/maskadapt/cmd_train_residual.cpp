@@ -54,7 +54,7 @@ struct Args {
   // Numeric values were range-checked while parsing (cli_checks.hpp); −1 means "not given".
   int envs = -1, threads = -1, goal_trajectories = -1, sample_every = -1;
   long long iterations = -1, seed = -1;
-  double minutes = -1, switch_rate = -1, episode_seconds = -1, term_threshold = -1;
+  double minutes = -1, switch_rate = -1, episode_seconds = -1, term_threshold = -1, residual_std = -1;
   std::vector<Index> hidden;
   std::vector<std::string> composition_only, tracking_only;  ///< such flags given on the command line
 };
@@ -247,6 +247,7 @@ void run_train_residual(const Args& a) {
     if (a.sample_every > 0) c.sample_every = a.sample_every;
     if (a.term_threshold >= 0) c.term_threshold = a.term_threshold;
     if (!a.hidden.empty()) c.residual_hidden = a.hidden;
+    if (a.residual_std > 0) c.residual_std = a.residual_std;
     require(c.method == "scratch" || !a.base.empty(), "a base checkpoint is needed (or --method scratch)", {{}, {}, "--base"});
     if (c.method != "scratch") {
       // The frozen base's architecture and, unless --motions, its motion set A come from its checkpoint.
@@ -678,6 +679,9 @@ const bool registered = maskadapt::cli::register_command([](CLI::App& app) {
   keep(c->add_option("--texts", a->texts, "tracking: text pool"));
   keep(c->add_option("--gain", a->gain, "fixed | scalar | per_dof"))->check(one_of({"fixed", "scalar", "per_dof"}));
   keep(c->add_option("--hidden", a->hidden, "residual hidden sizes"))->transform(integer_in(1, 16384));
+  keep(c->add_option("--residual-std", a->residual_std,
+                     "σ of the residual's exploration on the adapted DoFs (action units; default: the base's σ)"))
+      ->check(positive_real(10.0));
   CLI::Option* preset = keep(c->add_option("--preset", a->preset, "cpu | paper"))->check(one_of({"cpu", "paper"}));
   keep(c->add_option("--envs", a->envs, "parallel envs"))->transform(integer_in(1, kMaxEnvs));
   keep(c->add_option("--threads", a->threads, "threads for simulation and network passes (0 = all cores)"))

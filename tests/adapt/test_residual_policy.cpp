@@ -11,6 +11,10 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
+#include <limits>
+#include <numbers>
+
 using namespace maskadapt;
 using RowVectorXf = RowVectorX<float>;
 
@@ -220,6 +224,66 @@ TEST(ResidualPolicy, CheckpointRoundTrip) {
   b.load(ck);
   EXPECT_EQ(a.residual().mean_net.params(), b.residual().mean_net.params());
   EXPECT_EQ(a.gain().params(), b.gain().params());
+}
+
+TEST(ResidualPolicy, WiderResidualSigmaKeepsTheBaseMeanAndScalesOnlyTheMaskedNoise) {
+  Rng rng(3);
+  adapt::ResidualConfig rc;
+  rc.hidden = {16};
+  rc.init_std = 0.3;
+  const adapt::ResidualPolicy<float> pol(make_base(rng), kObs, dof_parts(), rc, rng);
+  const PartElements pe(obs_parts());
+  const MatrixXf obs = MatrixXf::Random(kObs, 4);
+  const std::vector<PartMask> masks = {PartMask::none(), PartMask::of(BodyPart::LeftArm), PartMask::parse("left_leg,trunk"),
+                                       PartMask::all()};
+  adapt::ResidualWorkspace<float> ws;
+  MatrixXf x, mu, act, ls;
+  RowVectorXf lp;
+  pol.build_input(pe, obs, masks, MatrixXf(), x, ws);
+  Rng r1(11), r2(11);
+  pol.act(x, masks, r1, act, lp, mu, ws);
+  const MatrixXf base_in = policy_input<float>(pe, obs, masks);
+  MatrixXf base_act, base_mu, scratch;
+  RowVectorXf base_lp;
+  nn::InferenceWorkspace<float> bws;
+  pol.base().act(base_in, r2, base_act, base_lp, base_mu, bws, scratch);
+  EXPECT_TRUE((mu.array() == base_mu.array()).all());  // the mean is still the base's, bit for bit
+  pol.log_std(masks, ls);
+  const float sigma_base = std::exp(-1.3f), sigma_res = 0.3f;
+  const float half_log_2pi = 0.5f * std::log(2.0f * std::numbers::pi_v<float>);
+  for (Index j = 0; j < 4; ++j) {
+    const VectorXf sel = adapt::dof_selector<float>(dof_parts(), masks[static_cast<std::size_t>(j)]);
+    float expected_lp = 0;
+    for (Index i = 0; i < kAct; ++i) {
+      const float sigma = sel[i] != 0 ? sigma_res : sigma_base;
+      EXPECT_NEAR(std::exp(ls(i, j)), sigma, 1e-6f) << i << "," << j;
+      // same normal draw, scaled by the row's σ: masked rows wider, unmasked rows the base's sample
+      EXPECT_NEAR(act(i, j) - mu(i, j), (base_act(i, j) - base_mu(i, j)) * sigma / sigma_base, 1e-5f) << i << "," << j;
+      if (sel[i] != 0) {
+        const float z = (act(i, j) - mu(i, j)) / sigma_res;
+        expected_lp += -0.5f * z * z - std::log(sigma_res) - half_log_2pi;
+      }
+    }
+    EXPECT_NEAR(lp[j], expected_lp, 1e-4f) << j;  // log-prob over the masked rows only, at σ_ψ
+  }
+  EXPECT_EQ(lp[0], 0.0f);
+  // σ_ψ travels in the checkpoint: a default-σ policy loaded from it samples with 0.3
+  Checkpoint ck;
+  pol.save(ck);
+  auto back = make_policy(adapt::GainMode::Scalar);
+  back.load(ck);
+  EXPECT_EQ(back.residual().log_std.params(), pol.residual().log_std.params());
+  // bad values name the field
+  for (const double bad : {-0.1, std::numeric_limits<double>::quiet_NaN(), std::numeric_limits<double>::infinity()}) {
+    rc.init_std = bad;
+    Rng r(1);
+    try {
+      adapt::ResidualPolicy<float>(make_base(r), kObs, dof_parts(), rc, r);
+      ADD_FAILURE() << "init_std " << bad << " accepted";
+    } catch (const Error& e) {
+      EXPECT_NE(std::string(e.what()).find("residual.init_std"), std::string::npos) << e.what();
+    }
+  }
 }
 
 // ---- composition data ----------------------------------------------------------------------

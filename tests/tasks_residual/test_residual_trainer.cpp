@@ -685,6 +685,25 @@ TEST(ResidualExport, ActsAsTheCheckpointAndHoldsOnlyThePolicy) {
   EXPECT_EQ(p.note, "unit test");
 }
 
+TEST(ResidualConfig, KeepsTheResidualSigmaThroughJsonAndIntoTheNetwork) {
+  ResidualTrainConfig c;
+  c.residual_std = 0.25;
+  const auto back = residual_config_from_json(to_json(c));
+  EXPECT_EQ(back.residual_std, 0.25);
+  EXPECT_EQ(residual_net_config(back, maskadapt::testing::tiny_walker_skeleton()).init_std, 0.25);
+  // a config written before the field existed: the base's σ (0)
+  nlohmann::json old = to_json(c);
+  old.erase("residual_std");
+  EXPECT_EQ(residual_config_from_json(old).residual_std, 0.0);
+  c.residual_std = -1;
+  try {
+    c.validate();
+    ADD_FAILURE() << "a negative residual_std was accepted";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("residual_std"), std::string::npos) << e.what();
+  }
+}
+
 TEST(ResidualConfig, KeepsTheTrackingPromptsThroughJson) {
   ResidualTrainConfig c;
   c.task = "tracking";

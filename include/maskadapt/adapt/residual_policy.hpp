@@ -23,7 +23,8 @@
 ///
 /// Zero initialisation: the residual's output layer (weights and bias) starts at exactly 0 and
 /// w = 1, σ_ψ = σ_base, so at step 0 μ̂ = μ_base bit for bit and the composite samples the same
-/// actions as the base policy from the same Rng (tests/adapt/test_residual_policy.cpp).
+/// actions as the base policy from the same Rng (tests/adapt/test_residual_policy.cpp). With
+/// `init_std` > 0 the mean is still the base's but the masked DoFs sample with σ_ψ = init_std.
 ///
 /// Gain modes: Fixed (w stays at `init_gain`), Scalar (one learned w shared by every DoF) or
 /// PerDof (one learned w per DoF).
@@ -75,6 +76,10 @@ struct ResidualConfig {
   nn::Activation activation = nn::Activation::ReLU;
   GainMode gain = GainMode::Scalar;
   double init_gain = 1.0;    ///< w at step 0 (1 ⇒ composite == base)
+  /// σ_ψ on every DoF (base action units, fixed during training); 0 ⇒ the base's own σ. A base
+  /// trained with AMP's fixed σ ≈ 0.055 explores a new motion of large amplitude (arm circles)
+  /// only slowly; a wider σ_ψ lets the residual find it (docs/training.md, "Residual σ").
+  double init_std = 0.0;
   Index goal_dim = 0;        ///< extra goal features g appended to the residual input (tracking)
   bool normalize_inputs = true;
   /// true: the base sees the masked observation [s̄ ; m] (ours: the mask-invariant base ignores
@@ -144,6 +149,8 @@ class ResidualPolicy {
             {{}, {}, "dof_parts"});
     require(cfg_.goal_dim >= 0, "goal_dim must be ≥ 0", {{}, {}, "residual.goal_dim"});
     require(std::isfinite(cfg_.init_gain), "init_gain must be finite", {{}, {}, "residual.init_gain"});
+    require(std::isfinite(cfg_.init_std) && cfg_.init_std >= 0, "init_std must be finite and ≥ 0 (0 = the base's σ)",
+            {{}, {}, "residual.init_std"});
     rl::ActorCriticConfig ac;
     ac.policy_input_dim = input_dim();
     ac.critic_input_dim = input_dim();
@@ -153,7 +160,8 @@ class ResidualPolicy {
     ac.normalize_inputs = cfg_.normalize_inputs;
     ac.learn_log_std = false;
     res_ = rl::GaussianActor<T>(ac, rng);
-    res_.log_std.params() = base_.log_std.params();  // σ_ψ = σ_base at step 0
+    res_.log_std.params() = base_.log_std.params();  // σ_ψ = σ_base at step 0 …
+    if (cfg_.init_std > 0) res_.log_std.params().setConstant(static_cast<T>(std::log(cfg_.init_std)));  // … or as asked
     zero_output_layer();
     gain_ = nn::ParameterBlock<T>(cfg_.gain == GainMode::PerDof ? A : 1);
     gain_.params().setConstant(static_cast<T>(cfg_.init_gain));

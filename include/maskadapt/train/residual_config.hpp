@@ -18,6 +18,8 @@
 
 #include <nlohmann/json.hpp>
 
+#include <cmath>
+
 #include <string>
 #include <vector>
 
@@ -38,6 +40,7 @@ struct ResidualTrainConfig {
   std::vector<Index> residual_hidden = {256, 256};
   std::string gain = "scalar";        ///< fixed | scalar | per_dof
   double init_gain = 1.0;
+  double residual_std = 0.0;          ///< σ_ψ of the residual (action units); 0 = the base's σ (adapt::ResidualConfig::init_std)
   // tracking
   std::string designated = "arms";    ///< parts that follow the generated trajectory
   std::vector<std::string> texts;     ///< prompts sampled for the goals; empty: the generator's arms pool (else the clips')
@@ -61,6 +64,8 @@ struct ResidualTrainConfig {
             "adaptnet adapts the base to a goal task (location, heading or strike), not to " + task, {{}, {}, "method"});
     require(!masks.empty(), "need at least one mask", {{}, {}, "masks"});
     require(switch_rate >= 0, "must be ≥ 0", {{}, {}, "switch_rate"});
+    require(std::isfinite(residual_std) && residual_std >= 0, "must be finite and ≥ 0 (0 = the base's σ)",
+            {{}, {}, "residual_std"});
     require(negative_fraction >= 0 && negative_fraction < 1, "must be in [0, 1)", {{}, {}, "negative_fraction"});
     require(goal_steps >= 1 && sample_every >= 1 && goal_trajectories >= 1, "tracking counts must be ≥ 1", {{}, {}, "tracking"});
     require(term_window_s > 0, "must be > 0", {{}, {}, "term_window_s"});
@@ -85,6 +90,7 @@ inline nlohmann::json to_json(const ResidualTrainConfig& c) {
           {"residual_hidden", c.residual_hidden},
           {"gain", c.gain},
           {"init_gain", c.init_gain},
+          {"residual_std", c.residual_std},
           {"designated", c.designated},
           {"texts", c.texts},
           {"goal_parts", c.goal_parts},
@@ -111,6 +117,7 @@ inline ResidualTrainConfig residual_config_from_json(const nlohmann::json& j, co
     c.residual_hidden = j.at("residual_hidden").get<std::vector<Index>>();
     c.gain = j.at("gain");
     c.init_gain = j.at("init_gain");
+    c.residual_std = j.value("residual_std", 0.0);  // (absent before it was recorded: the base's σ)
     c.designated = j.at("designated");
     c.texts = j.value("texts", std::vector<std::string>());  // (absent before it was recorded: the pool)
     c.goal_parts = j.value("goal_parts", std::string());  // (absent before goal parts existed: none)
@@ -186,6 +193,7 @@ inline adapt::ResidualConfig residual_net_config(const ResidualTrainConfig& c, c
   rc.activation = residual_activation(c.rl.net.activation);
   rc.gain = adapt::gain_mode_from_name(c.gain);
   rc.init_gain = c.init_gain;
+  rc.init_std = c.residual_std;
   rc.masked_base_input = !(c.task == "tracking" && c.method == "cml");
   rc.goal_dim = task_goal_dim(c, skel);
   rc.goal_parts = c.goal_parts.empty() ? PartMask::none() : PartMask::parse(c.goal_parts, "goal_parts");
