@@ -56,26 +56,36 @@ adapt::ResidualPolicy<float> make_policy(adapt::GainMode g = adapt::GainMode::Pe
   return adapt::ResidualPolicy<float>(make_base(rng), kObs, dof_parts(), rc, rng);
 }
 
+/// The composite's samples and the base's on its own masked input, drawn from the same stream.
+struct SideBySide {
+  MatrixXf x, mu, act, base_mu, base_act;
+  RowVectorXf lp;
+};
+SideBySide sample_beside_the_base(const adapt::ResidualPolicy<float>& pol, const MatrixXf& obs,
+                                  const std::vector<PartMask>& masks) {
+  const PartElements pe(obs_parts());
+  SideBySide s;
+  adapt::ResidualWorkspace<float> ws;
+  pol.build_input(pe, obs, masks, MatrixXf(), s.x, ws);
+  Rng r1(11), r2(11);
+  pol.act(s.x, masks, r1, s.act, s.lp, s.mu, ws);
+  const MatrixXf base_in = policy_input<float>(pe, obs, masks);
+  MatrixXf scratch;
+  RowVectorXf base_lp;
+  nn::InferenceWorkspace<float> bws;
+  pol.base().act(base_in, r2, s.base_act, base_lp, s.base_mu, bws, scratch);
+  return s;
+}
+
 }  // namespace
 
 TEST(ResidualPolicy, ZeroInitCompositeEqualsBaseExactly) {
   const auto pol = make_policy();
-  const PartElements pe(obs_parts());
   const MatrixXf obs = MatrixXf::Random(kObs, 6);
   const std::vector<PartMask> masks = {PartMask::none(), PartMask::of(BodyPart::LeftArm), PartMask::parse("left_leg,trunk"),
                                        PartMask::all(), PartMask::of(BodyPart::RightArm), PartMask::of(BodyPart::LeftLeg)};
-  adapt::ResidualWorkspace<float> ws;
-  MatrixXf x, mu, act;
-  RowVectorXf lp;
-  pol.build_input(pe, obs, masks, MatrixXf(), x, ws);
-  Rng r1(11), r2(11);
-  pol.act(x, masks, r1, act, lp, mu, ws);
   // the base on its masked input, sampled from the same stream
-  const MatrixXf base_in = policy_input<float>(pe, obs, masks);
-  MatrixXf base_act, base_mu, scratch;
-  RowVectorXf base_lp;
-  nn::InferenceWorkspace<float> bws;
-  pol.base().act(base_in, r2, base_act, base_lp, base_mu, bws, scratch);
+  const auto [x, mu, act, base_mu, base_act, lp] = sample_beside_the_base(pol, obs, masks);
   EXPECT_TRUE((mu.array() == base_mu.array()).all());
   EXPECT_TRUE((act.array() == base_act.array()).all());
   // the residual input carries the base action and the mask bits
@@ -232,21 +242,11 @@ TEST(ResidualPolicy, WiderResidualSigmaKeepsTheBaseMeanAndScalesOnlyTheMaskedNoi
   rc.hidden = {16};
   rc.init_std = 0.3;
   const adapt::ResidualPolicy<float> pol(make_base(rng), kObs, dof_parts(), rc, rng);
-  const PartElements pe(obs_parts());
   const MatrixXf obs = MatrixXf::Random(kObs, 4);
   const std::vector<PartMask> masks = {PartMask::none(), PartMask::of(BodyPart::LeftArm), PartMask::parse("left_leg,trunk"),
                                        PartMask::all()};
-  adapt::ResidualWorkspace<float> ws;
-  MatrixXf x, mu, act, ls;
-  RowVectorXf lp;
-  pol.build_input(pe, obs, masks, MatrixXf(), x, ws);
-  Rng r1(11), r2(11);
-  pol.act(x, masks, r1, act, lp, mu, ws);
-  const MatrixXf base_in = policy_input<float>(pe, obs, masks);
-  MatrixXf base_act, base_mu, scratch;
-  RowVectorXf base_lp;
-  nn::InferenceWorkspace<float> bws;
-  pol.base().act(base_in, r2, base_act, base_lp, base_mu, bws, scratch);
+  const auto [x, mu, act, base_mu, base_act, lp] = sample_beside_the_base(pol, obs, masks);
+  MatrixXf ls;
   EXPECT_TRUE((mu.array() == base_mu.array()).all());  // the mean is still the base's, bit for bit
   pol.log_std(masks, ls);
   const float sigma_base = std::exp(-1.3f), sigma_res = 0.3f;
