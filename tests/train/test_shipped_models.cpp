@@ -12,6 +12,7 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <cstring>
 #include <string>
 #include <vector>
@@ -121,29 +122,47 @@ bool same_base(const Checkpoint& stage2, const std::string& base_model) {
   return stage2.section("base/actor/params").data == load_checkpoint(base_model).section("actor/params").data;
 }
 
-// The Table 2 case (c) policies (issue 15, models/table2/): SNEAKY composed onto the legs of the
-// Table 1 MI base by ours and by the CML-style baseline; each is what its name says, on that base.
-TEST(ShippedModels, Table2SneakPoliciesAreTheCellsTheyClaimToBe) {
+// The Table 2 policies (issue 15, models/table2/): a new motion composed onto one part of the
+// Table 1 MI base by ours and by the CML-style baseline, two seeds per cell (four for (b)) — case (a) the kick on
+// the legs and (c) the sneaky walk on the legs (the residual explores with the base's σ), (b) the
+// swim on the arms (with σ 0.15, `--residual-std 0.15`). Each is what its name says, on that base, with the σ it was trained with.
+TEST(ShippedModels, Table2PoliciesAreTheCellsTheyClaimToBe) {
+  struct Case {
+    const char *file, *motion, *mask;
+    double residual_std;  // 0: the base's σ
+    int seeds;            // s1 … s<seeds>
+  };
   const Skeleton& skel = humanoid_skeleton();
-  for (const char* method : {"ours", "cml"})
-    for (const char* seed : {"s1", "s2"}) {
-      const std::string path = std::string(MASKADAPT_SOURCE_DIR "/models/table2/sneak_") + method + "_" + seed + ".bin";
-      const Checkpoint c = load_checkpoint(path);
-      const ResidualTrainConfig cfg = check_residual_export(c, path);
-      EXPECT_EQ(cfg.task, "composition") << path;
-      EXPECT_EQ(cfg.method, method) << path;
-      EXPECT_EQ(cfg.masks, std::vector<std::string>{"lower_body"}) << path;
-      ASSERT_EQ(cfg.new_motions.size(), 1u) << path;
-      EXPECT_NE(cfg.new_motions[0].find("SNEAKY"), std::string::npos) << path;
-      EXPECT_EQ(cfg.rl.run.seed, std::string(seed) == "s1" ? 1u : 2u) << path;
-      EXPECT_EQ(c.get_int("trainer/iteration"), 1000) << path;
-      EXPECT_TRUE(same_base(c, MASKADAPT_SOURCE_DIR "/models/table1/mask_mi03_s1.bin")) << path;
-      const auto pol = stage2_policy_from_checkpoint<adapt::ResidualPolicy<float>>(c, skel);
-      MatrixXf x = MatrixXf::Zero(pol.input_dim(), 1), mu;
-      adapt::ResidualWorkspace<float> ws;
-      pol.mean(x, std::vector<PartMask>{PartMask::parse("lower_body")}, mu, ws);
-      EXPECT_TRUE(mu.allFinite()) << path;
-    }
+  const std::string base_path = MASKADAPT_SOURCE_DIR "/models/table1/mask_mi03_s1.bin";
+  const Checkpoint base = load_checkpoint(base_path);
+  for (const Case& k : {Case{"kick", "kick", "lower_body", 0.0, 2}, Case{"swim", "swim", "arms", 0.15, 4},
+                        Case{"sneak", "SNEAKY", "lower_body", 0.0, 2}})
+    for (const char* method : {"ours", "cml"})
+      for (int seed = 1; seed <= k.seeds; ++seed) {
+        const std::string path = std::string(MASKADAPT_SOURCE_DIR "/models/table2/") + k.file + "_" + method + "_s" +
+                                 std::to_string(seed) + ".bin";
+        const Checkpoint c = load_checkpoint(path);
+        const ResidualTrainConfig cfg = check_residual_export(c, path);
+        EXPECT_EQ(cfg.task, "composition") << path;
+        EXPECT_EQ(cfg.method, method) << path;
+        EXPECT_EQ(cfg.masks, std::vector<std::string>{k.mask}) << path;
+        ASSERT_EQ(cfg.new_motions.size(), 1u) << path;
+        EXPECT_NE(cfg.new_motions[0].find(k.motion), std::string::npos) << path;
+        EXPECT_EQ(cfg.rl.run.seed, static_cast<std::uint64_t>(seed)) << path;
+        EXPECT_EQ(c.get_int("trainer/iteration"), 1000) << path;
+        EXPECT_EQ(cfg.residual_std, k.residual_std) << path;
+        EXPECT_TRUE(same_base(c, base_path)) << path;
+        const auto pol = stage2_policy_from_checkpoint<adapt::ResidualPolicy<float>>(c, skel);
+        // The residual explores with the σ it was trained with: the asked one, else the base's.
+        VectorXf want(pol.residual().log_std.params().size());
+        if (k.residual_std > 0) want.setConstant(float(std::log(k.residual_std)));
+        else base.copy_to<float>("actor/log_std", want);
+        EXPECT_EQ(pol.residual().log_std.params(), want) << path;
+        MatrixXf x = MatrixXf::Zero(pol.input_dim(), 1), mu;
+        adapt::ResidualWorkspace<float> ws;
+        pol.mean(x, std::vector<PartMask>{PartMask::parse(k.mask)}, mu, ws);
+        EXPECT_TRUE(mu.allFinite()) << path;
+      }
 }
 
 // The Table 3 policies (issue 16, models/table3/): each is the stage-2 export of the cell it is
