@@ -1,4 +1,4 @@
-# Shared by the table grids (scripts/table3_grid.sh, scripts/table4_grid.sh); source it, with BIN set.
+# Shared by the table grids (scripts/table2_grid.sh, scripts/table3_grid.sh, scripts/table4_grid.sh); source it, with BIN set.
 
 # train_or_resume DIR ITERATIONS TRAIN_RESIDUAL_ARGS... — trains the cell in DIR to ITERATIONS: a
 # new run with the given arguments, or, when DIR already holds a checkpoint, that run continued
