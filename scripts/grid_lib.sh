@@ -12,3 +12,9 @@ train_or_resume() {
     "$BIN" train-residual "$@" --iterations "$iterations" --out "$dir"
   fi
 }
+
+# already_done NAME RESULT — true, and says so, when the cell's result file exists (the grids skip it).
+already_done() {
+  [[ -f "$2" ]] || return 1
+  echo "== $1: done ($2)"
+}

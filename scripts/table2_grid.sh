@@ -64,10 +64,7 @@ for cell in $CELLS; do
   for seed in $SEEDS; do
     dir="$OUT/${cell}_s$seed"
     result="$dir/eval_it$ITERATIONS.txt"
-    if [[ -f "$result" ]]; then
-      echo "== ${cell}_s$seed: done ($result)"
-      continue
-    fi
+    already_done "${cell}_s$seed" "$result" && continue
     echo "== ${cell}_s$seed: $(date -u +%H:%M:%S) training to $ITERATIONS iterations in $dir"
     # shellcheck disable=SC2046
     train_or_resume "$dir" "$ITERATIONS" --task composition --method "$method" --base "$BASE" \

@@ -57,10 +57,7 @@ for cell in $CELLS; do
   method=${cell#*_}
   dir="$OUT/${cell}_s$SEED"
   result="$dir/eval_it$ITERATIONS.json"
-  if [[ -f "$result" ]]; then
-    echo "== $cell: done ($result)"
-    continue
-  fi
+  already_done "$cell" "$result" && continue
   echo "== $cell: $(date -u +%H:%M:%S) training to $ITERATIONS iterations in $dir"
   # shellcheck disable=SC2046
   train_or_resume "$dir" "$ITERATIONS" --task "$task" --method "$method" --base "$BASE" \

@@ -27,10 +27,7 @@ CELLS=${CELLS:-"ours cml scratch"}
 for method in $CELLS; do
   dir="$OUT/tracking_${method}_s$SEED"
   result="$dir/eval_it$ITERATIONS.json"
-  if [[ -f "$result" ]]; then
-    echo "== $method: done ($result)"
-    continue
-  fi
+  already_done "$method" "$result" && continue
   echo "== $method: $(date -u +%H:%M:%S) training to $ITERATIONS iterations in $dir"
   if [[ "$method" == scratch ]]; then base=(--motions "$MOTIONS"); else base=(--base "$BASE"); fi
   train_or_resume "$dir" "$ITERATIONS" --task tracking --method "$method" "${base[@]}" --generator "$GENERATOR" \
