@@ -117,9 +117,10 @@ TEST(ShippedModels, Table1BasesLoadAsTheVariantsTheyClaimToBe) {
   }
 }
 
-// Bit-identical actor parameters: a stage-2 model's frozen base against the base model it names.
-bool same_base(const Checkpoint& stage2, const std::string& base_model) {
-  return stage2.section("base/actor/params").data == load_checkpoint(base_model).section("actor/params").data;
+// Bit-identical actor parameters: a stage-2 model's frozen base against the base model it names
+// (loaded once by the caller, not once per stage-2 file).
+bool same_base(const Checkpoint& stage2, const Checkpoint& base_model) {
+  return stage2.section("base/actor/params").data == base_model.section("actor/params").data;
 }
 
 // The Table 2 policies (issue 15, models/table2/): a new motion composed onto one part of the
@@ -133,8 +134,7 @@ TEST(ShippedModels, Table2PoliciesAreTheCellsTheyClaimToBe) {
     int seeds;            // s1 … s<seeds>
   };
   const Skeleton& skel = humanoid_skeleton();
-  const std::string base_path = MASKADAPT_SOURCE_DIR "/models/table1/mask_mi03_s1.bin";
-  const Checkpoint base = load_checkpoint(base_path);
+  const Checkpoint base = load_checkpoint(MASKADAPT_SOURCE_DIR "/models/table1/mask_mi03_s1.bin");
   for (const Case& k : {Case{"kick", "kick", "lower_body", 0.0, 2}, Case{"swim", "swim", "arms", 0.15, 6},
                         Case{"sneak", "SNEAKY", "lower_body", 0.0, 2}})
     for (const char* method : {"ours", "cml"})
@@ -151,7 +151,7 @@ TEST(ShippedModels, Table2PoliciesAreTheCellsTheyClaimToBe) {
         EXPECT_EQ(cfg.rl.run.seed, static_cast<std::uint64_t>(seed)) << path;
         EXPECT_EQ(c.get_int("trainer/iteration"), 1000) << path;
         EXPECT_EQ(cfg.residual_std, k.residual_std) << path;
-        EXPECT_TRUE(same_base(c, base_path)) << path;
+        EXPECT_TRUE(same_base(c, base)) << path;
         const auto pol = stage2_policy_from_checkpoint<adapt::ResidualPolicy<float>>(c, skel);
         // The residual explores with the σ it was trained with: the asked one, else the base's.
         VectorXf want(pol.residual().log_std.params().size());
@@ -170,6 +170,7 @@ TEST(ShippedModels, Table2PoliciesAreTheCellsTheyClaimToBe) {
 // shipped walking base's actor — and builds on the reference humanoid with finite mean actions.
 TEST(ShippedModels, Table3PoliciesAreTheCellsTheyClaimToBeOnTheShippedBase) {
   const Skeleton& skel = humanoid_skeleton();
+  const Checkpoint walker = load_checkpoint(MASKADAPT_SOURCE_DIR "/models/mask_mi_walk_bandai.bin");
   for (const char* task : {"location", "heading", "strike"})
     for (const char* method : {"ours", "cml", "adaptnet"}) {
       const std::string path = std::string(MASKADAPT_SOURCE_DIR "/models/table3/") + task + "_" + method + ".bin";
@@ -181,7 +182,7 @@ TEST(ShippedModels, Table3PoliciesAreTheCellsTheyClaimToBeOnTheShippedBase) {
       EXPECT_EQ(cfg.goal_parts, std::string(task) == "heading" ? "" : "lower_body") << path;
       EXPECT_EQ(c.get_int("trainer/iteration"), 1500) << path;
       EXPECT_NE(export_provenance(c).note.find(std::string("Table 3 cell ") + task + "/" + method), std::string::npos) << path;
-      EXPECT_TRUE(same_base(c, MASKADAPT_SOURCE_DIR "/models/mask_mi_walk_bandai.bin"))
+      EXPECT_TRUE(same_base(c, walker))
           << path << ": the frozen base is not models/mask_mi_walk_bandai.bin's actor";
       auto mean_actions = [&]<class Policy>() {
         const Policy pol = stage2_policy_from_checkpoint<Policy>(c, skel);
@@ -203,6 +204,7 @@ TEST(ShippedModels, Table3PoliciesAreTheCellsTheyClaimToBeOnTheShippedBase) {
 // 2), from scratch without a base (seed 1) — each the stage-2 export of the cell it is named after.
 TEST(ShippedModels, Table4TrackingPoliciesAreTheCellsTheyClaimToBe) {
   const Skeleton& skel = humanoid_skeleton();
+  const Checkpoint walker = load_checkpoint(MASKADAPT_SOURCE_DIR "/models/mask_mi_walk_bandai.bin");
   const std::vector<std::pair<std::string, int>> cells = {{"ours", 1}, {"ours", 2}, {"cml", 1}, {"cml", 2}, {"scratch", 1}};
   for (const auto& [method, seed] : cells) {
     const std::string path = std::string(MASKADAPT_SOURCE_DIR "/models/table4/tracking_") + method + "_s" +
@@ -217,7 +219,7 @@ TEST(ShippedModels, Table4TrackingPoliciesAreTheCellsTheyClaimToBe) {
     EXPECT_EQ(cfg.rl.run.seed, static_cast<std::uint64_t>(seed)) << path;
     EXPECT_EQ(c.get_int("trainer/iteration"), 3000) << path;  // (twice the first budget: docs/results.md)
     if (method != "scratch") {
-      EXPECT_TRUE(same_base(c, MASKADAPT_SOURCE_DIR "/models/mask_mi_walk_bandai.bin"))
+      EXPECT_TRUE(same_base(c, walker))
           << path << ": the frozen base is not models/mask_mi_walk_bandai.bin's actor";
     }
     const auto pol = stage2_policy_from_checkpoint<adapt::ResidualPolicy<float>>(c, skel);
