@@ -5,6 +5,7 @@
 #include <cstring>
 #include <limits>
 
+#include "maskadapt/core/rng.hpp"
 #include "maskadapt/core/thread_pool.hpp"
 #include "maskadapt/nn/adam.hpp"
 #include "maskadapt/nn/mlp.hpp"
@@ -177,4 +178,85 @@ TEST(Adam, RegressionReachesTargetLossAndIsBitIdenticalForAnyThreadCount) {
   EXPECT_EQ(0, std::memcmp(p1.data(), p2.data(), sizeof(float) * p1.size()));
   EXPECT_EQ(0, std::memcmp(p1.data(), p3.data(), sizeof(float) * p1.size()));
   EXPECT_EQ(l1, l2);
+}
+
+// The step on blocks large enough to be split over the pool (≥ kMinSplitElements parameters,
+// odd sizes so the last segment is short), with clipping and both weight decays: the same bits
+// with no pool and with pools of 1, 2 and 3 threads; and the element-wise result matches the
+// scalar torch formula of RefAdam. A NaN in the very last segment leaves every block untouched.
+TEST(Adam, SplitOverThePoolBitIdenticalAndEqualToTheScalarFormula) {
+  const Index na = 70001, nb = 3001;
+  ASSERT_GE(static_cast<double>(na + nb), kMinSplitElements);
+  auto fill = [](ParameterBlock<float>& b, Rng& rng, bool params) {  // N(0, 1) θ, N(0, 0.5²) g
+    for (Index i = 0; i < b.size(); ++i) {
+      if (params) b.params()[i] = static_cast<float>(rng.normal());
+      b.grads()[i] = static_cast<float>(0.5 * rng.normal());
+    }
+  };
+  for (const bool decoupled : {false, true}) {
+    AdamConfig cfg;
+    cfg.lr = 1e-2;
+    cfg.weight_decay = 0.01;
+    cfg.decoupled_weight_decay = decoupled;
+    cfg.max_grad_norm = 50.0;  // ‖g‖ ≈ √(73002)·0.5 ≈ 135: clipped
+    struct Run {
+      ParameterBlock<float> a, b;
+      AdamStepResult r;
+    };
+    auto run = [&](std::size_t threads) {
+      Run out{ParameterBlock<float>(na), ParameterBlock<float>(nb), {}};
+      Rng rng(77);
+      Adam<float> opt(cfg);
+      ThreadPool pool(threads == 0 ? 1 : threads);
+      ScopedPool scope(threads == 0 ? nullptr : &pool);
+      for (int step = 0; step < 3; ++step) {
+        fill(out.a, rng, step == 0);
+        fill(out.b, rng, step == 0);
+        out.r = opt.step({&out.a, &out.b});
+      }
+      return out;
+    };
+    const Run ref = run(0);
+    EXPECT_TRUE(ref.r.applied);
+    EXPECT_LT(ref.r.clip_scale, 1.0);
+    for (const std::size_t threads : {1, 2, 3}) {
+      const Run got = run(threads);
+      EXPECT_EQ(got.r.grad_norm, ref.r.grad_norm) << threads << " threads";
+      EXPECT_EQ(got.r.clip_scale, ref.r.clip_scale);
+      for (const auto& [x, y] : {std::pair{&got.a, &ref.a}, std::pair{&got.b, &ref.b}}) {
+        EXPECT_EQ(0, std::memcmp(x->params().data(), y->params().data(), sizeof(float) * x->size()));
+        EXPECT_EQ(0, std::memcmp(x->adam_m().data(), y->adam_m().data(), sizeof(float) * x->size()));
+        EXPECT_EQ(0, std::memcmp(x->adam_v().data(), y->adam_v().data(), sizeof(float) * x->size()));
+        EXPECT_EQ(0, std::memcmp(x->grads().data(), y->grads().data(), sizeof(float) * x->size()));
+      }
+    }
+    // One step from fresh moments against the scalar formula (gradients clipped by clip_scale).
+    ParameterBlock<float> a(na), b(nb);
+    Rng rng(78);
+    fill(a, rng, true);
+    fill(b, rng, true);
+    const Eigen::VectorXf a0 = a.params(), ga = a.grads();
+    double sq = 0;
+    for (const auto* blk : {&a, &b})
+      for (Index i = 0; i < blk->size(); ++i) sq += double(blk->grads()[i]) * double(blk->grads()[i]);
+    Adam<float> opt(cfg);
+    ThreadPool pool(2);
+    ScopedPool scope(&pool);
+    const AdamStepResult r = opt.step({&a, &b});
+    EXPECT_NEAR(r.grad_norm, std::sqrt(sq), 1e-9 * std::sqrt(sq));
+    for (Index i = 0; i < na; i += 997) {
+      RefAdam ref_adam{cfg.lr, cfg.beta1, cfg.beta2, cfg.eps, cfg.weight_decay, decoupled};
+      const double want = ref_adam.step(a0[i], double(ga[i]) * r.clip_scale);
+      EXPECT_NEAR(a.params()[i], want, 1e-5 * std::max(1.0, std::abs(want))) << "element " << i;
+    }
+    // NaN in the last segment of the second block: nothing changes, in any block.
+    const Eigen::VectorXf pa = a.params(), pb = b.params(), ma = a.adam_m();
+    b.grads()[nb - 1] = std::numeric_limits<float>::quiet_NaN();
+    const AdamStepResult bad = opt.step({&a, &b});
+    EXPECT_FALSE(bad.applied);
+    EXPECT_EQ(opt.step_count(), 1);
+    EXPECT_EQ(0, std::memcmp(pa.data(), a.params().data(), sizeof(float) * na));
+    EXPECT_EQ(0, std::memcmp(pb.data(), b.params().data(), sizeof(float) * nb));
+    EXPECT_EQ(0, std::memcmp(ma.data(), a.adam_m().data(), sizeof(float) * na));
+  }
 }

@@ -1,8 +1,11 @@
 #include <gtest/gtest.h>
 
+#include <cstring>
 #include <limits>
+#include <string>
 
 #include "maskadapt/core/rng.hpp"
+#include "maskadapt/core/thread_pool.hpp"
 #include "maskadapt/nn/normalizer.hpp"
 
 using namespace maskadapt;
@@ -77,4 +80,57 @@ TEST(Normalizer, IdentityBeforeDataAndRejectsBadInput) {
   EXPECT_EQ(n.count(), 0);
   EXPECT_THROW(n.update(Eigen::MatrixXd::Zero(3, 2)), Error);
   EXPECT_THROW(n.merge(RunningNormalizer<double>(3)), Error);
+}
+
+// A batch large enough to be split over the pool (rows for update, columns for normalize):
+// statistics equal the two-pass closed form, and statistics and outputs have the same bits with
+// no pool and with pools of 1, 2 and 3 threads. A NaN in the last entry is named by row and
+// column, and leaves the statistics untouched.
+TEST(Normalizer, SplitOverThePoolBitIdenticalAndEqualToTwoPass) {
+  Rng rng(6);
+  const Index d = 300, n = 700;
+  ASSERT_GE(double(d) * double(n), kMinSplitElements);
+  const Eigen::MatrixXf x = data(rng, d, n), later = data(rng, d, n / 2);
+  const Eigen::MatrixXd xd = x.cast<double>();
+  const Eigen::VectorXd mean = xd.rowwise().mean();
+  const Eigen::VectorXd var = (xd.colwise() - mean).array().square().rowwise().mean();
+  struct Out {
+    RunningNormalizer<float> norm;
+    Eigen::MatrixXf z;
+  };
+  auto run = [&](std::size_t threads) {
+    ThreadPool pool(threads == 0 ? 1 : threads);
+    ScopedPool scope(threads == 0 ? nullptr : &pool);
+    Out o{RunningNormalizer<float>(d), Eigen::MatrixXf(d, n)};
+    o.norm.update(x);
+    o.norm.update(later);
+    o.norm.normalize(x, o.z);
+    return o;
+  };
+  const Out ref = run(0);
+  RunningNormalizer<float> once(d);
+  once.update(x);
+  EXPECT_LT((once.mean() - mean).cwiseAbs().maxCoeff(), 1e-9);
+  EXPECT_LT(((once.variance() - var).array() / var.array()).abs().maxCoeff(), 1e-11);
+  for (const std::size_t threads : {1, 2, 3}) {
+    const Out got = run(threads);
+    EXPECT_EQ(0, std::memcmp(got.norm.mean().data(), ref.norm.mean().data(), sizeof(double) * d)) << threads;
+    EXPECT_EQ(0, std::memcmp(got.norm.m2().data(), ref.norm.m2().data(), sizeof(double) * d)) << threads;
+    EXPECT_EQ(0, std::memcmp(got.z.data(), ref.z.data(), sizeof(float) * d * n)) << threads;
+  }
+  ThreadPool pool(2);
+  ScopedPool scope(&pool);
+  RunningNormalizer<float> norm(d);
+  norm.update(x);
+  Eigen::MatrixXf bad = later;
+  bad(d - 1, n / 2 - 1) = std::numeric_limits<float>::infinity();
+  try {
+    norm.update(bad);
+    ADD_FAILURE() << "an inf in the batch was accepted";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("row 299, col 349"), std::string::npos) << e.what();
+  }
+  EXPECT_EQ(norm.count(), n);
+  EXPECT_EQ(0, std::memcmp(norm.mean().data(), once.mean().data(), sizeof(double) * d));
+  EXPECT_EQ(0, std::memcmp(norm.m2().data(), once.m2().data(), sizeof(double) * d));
 }

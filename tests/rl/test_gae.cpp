@@ -1,6 +1,8 @@
 #include <maskadapt/rl/gae.hpp>
 #include <maskadapt/rl/replay_buffer.hpp>
 #include <maskadapt/rl/rollout_buffer.hpp>
+#include <maskadapt/core/thread_pool.hpp>
+#include <maskadapt/nn/chunks.hpp>
 
 #include <gtest/gtest.h>
 
@@ -189,4 +191,36 @@ TEST(ReplayBuffer, FifoOverwriteAndSampling) {
   MatrixXf bad = MatrixXf::Constant(2, 1, std::nanf(""));
   EXPECT_THROW(rb.push(bad), Error);
   EXPECT_THROW(rb.push(MatrixXf::Zero(3, 1)), Error);
+}
+
+// Minibatch gathers and replay samples large enough to be copied on the pool: each column is
+// the source column it names (the draws stay in the stream's order), with and without a pool; an
+// out-of-range index throws before anything is copied.
+TEST(ReplayBuffer, GathersAndSamplesOnThePoolEqualTheSerialOnes) {
+  const Index d = 200, n = 1500;
+  ASSERT_GE(double(d) * double(n), maskadapt::nn::kMinSplitElements);
+  Rng fill(3);
+  MatrixXf src(d, n);
+  for (Index i = 0; i < src.size(); ++i) src.data()[i] = static_cast<float>(fill.normal());
+  Rng pick(4);
+  const std::vector<Index> idx = minibatch_indices(n, 1, pick)[0];
+  ReplayBuffer<float> rb(d, n);
+  rb.push(src);
+  MatrixXf serial_g, serial_s;
+  Rng r1(5);
+  gather_columns(src, idx, serial_g);
+  rb.sample(n, r1, serial_s);
+  for (Index j = 0; j < n; ++j) ASSERT_EQ(serial_g.col(j), src.col(idx[static_cast<std::size_t>(j)])) << j;
+  ThreadPool pool(2);
+  maskadapt::nn::ScopedPool scope(&pool);
+  MatrixXf g, s;
+  Rng r2(5);
+  gather_columns(src, idx, g);
+  rb.sample(n, r2, s);
+  EXPECT_EQ(g, serial_g);
+  EXPECT_EQ(s, serial_s);
+  EXPECT_EQ(r1.uniform_int(1000000), r2.uniform_int(1000000));  // the same number of draws
+  std::vector<Index> out_of_range = idx;
+  out_of_range.back() = n;
+  EXPECT_THROW(gather_columns(src, out_of_range, g), Error);
 }

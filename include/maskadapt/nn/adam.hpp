@@ -14,6 +14,10 @@
 ///
 /// The moments live in each ParameterBlock (adam_m, adam_v), so the optimiser object itself only
 /// holds hyper-parameters and the step counter (checkpoint both).
+///
+/// The parameters are cut into segments of 2,048; both the norm (per-segment sums added in
+/// segment order) and the element-wise step run segment-parallel on nn::default_pool() when
+/// there are at least kMinSplitElements of them, with the same bits for any pool.
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
@@ -21,7 +25,9 @@
 #include <vector>
 
 #include "maskadapt/core/error.hpp"
+#include "maskadapt/core/thread_pool.hpp"
 #include "maskadapt/core/types.hpp"
+#include "maskadapt/nn/chunks.hpp"
 #include "maskadapt/nn/parameter_block.hpp"
 
 namespace maskadapt::nn {
@@ -82,15 +88,25 @@ class Adam {
   AdamStepResult step_impl(ParameterBlock<T>* const* blocks, std::size_t count) {
     validate();
     AdamStepResult r;
+    list_segments(blocks, count);
+    ThreadPool* pool = default_pool();
+    const bool split = static_cast<double>(total_) >= kMinSplitElements;
+    // Σ g² per segment (in parallel), then over segments in their order: the same bits for any pool
+    segment_sq_.resize(segments_.size());
+    for_segments(pool, split, [&](std::size_t i) {
+      const Segment& sg = segments_[i];
+      segment_sq_[i] = sum_of_squares(blocks[sg.block]->grads().segment(sg.begin, sg.length));
+    });
     double sq = 0.0;
-    for (std::size_t k = 0; k < count; ++k) sq += sum_of_squares(blocks[k]->grads());
+    for (const double v : segment_sq_) sq += v;
     r.grad_norm = std::sqrt(sq);
     if (!std::isfinite(r.grad_norm)) return r;  // leave everything untouched
+    T clip = T(1);
     if (config_.max_grad_norm > 0) {
       const double coef = config_.max_grad_norm / (r.grad_norm + 1e-6);
       if (coef < 1.0) {
         r.clip_scale = coef;
-        for (std::size_t k = 0; k < count; ++k) blocks[k]->grads() *= static_cast<T>(coef);
+        clip = static_cast<T>(coef);
       }
     }
     ++step_;
@@ -101,37 +117,67 @@ class Adam {
     const T eps = static_cast<T>(config_.eps);
     const T wd = static_cast<T>(config_.weight_decay);
     const T decay = static_cast<T>(1.0 - config_.lr * config_.weight_decay);
+    const bool clipped = r.clip_scale != 1.0;
     const bool l2 = config_.weight_decay != 0 && !config_.decoupled_weight_decay;
     const bool decoupled = config_.weight_decay != 0 && config_.decoupled_weight_decay;
-    // Element-wise, in L1-sized segments, as array expressions (vectorised: std::sqrt in a plain
-    // loop is not, because of errno); each element's arithmetic is the scalar formula's, in its order.
-    constexpr Index kSegment = 2048;
-    for (std::size_t k = 0; k < count; ++k) {
-      const Index n = blocks[k]->size();
-      for (Index s0 = 0; s0 < n; s0 += kSegment) {
-        const Index len = std::min(kSegment, n - s0);
-        auto p = blocks[k]->params().segment(s0, len).array();
-        const auto g = blocks[k]->grads().segment(s0, len).array();
-        auto m = blocks[k]->adam_m().segment(s0, len).array();
-        auto v = blocks[k]->adam_v().segment(s0, len).array();
-        // g_i (+ wd·θ_i before this step's update: Adam's L2), then the moments, then θ
-        auto moments_and_step = [&](const auto& gi) {
-          m += (gi - m) * (T(1) - b1);  // torch: exp_avg.lerp_(grad, 1 - beta1)
-          v = v * b2 + (T(1) - b2) * gi * gi;
-          p -= step_size * m / (v.sqrt() / bc2_sqrt + eps);
-        };
-        if (decoupled) p *= decay;
-        if (l2) moments_and_step(g + wd * p);
-        else moments_and_step(g);
-      }
-    }
+    // Element-wise, segment by segment (in parallel: each element's arithmetic is the scalar
+    // formula's, in its order, whatever thread runs it), as array expressions (vectorised:
+    // std::sqrt in a plain loop is not, because of errno).
+    for_segments(pool, split, [&](std::size_t i) {
+      const Segment& sg = segments_[i];
+      ParameterBlock<T>& block = *blocks[sg.block];
+      auto p = block.params().segment(sg.begin, sg.length).array();
+      auto g = block.grads().segment(sg.begin, sg.length).array();
+      auto m = block.adam_m().segment(sg.begin, sg.length).array();
+      auto v = block.adam_v().segment(sg.begin, sg.length).array();
+      if (clipped) g *= clip;  // clipped in place, as torch's clip_grad_norm_
+      // g_i (+ wd·θ_i before this step's update: Adam's L2), then the moments, then θ
+      auto moments_and_step = [&](const auto& gi) {
+        m += (gi - m) * (T(1) - b1);  // torch: exp_avg.lerp_(grad, 1 - beta1)
+        v = v * b2 + (T(1) - b2) * gi * gi;
+        p -= step_size * m / (v.sqrt() / bc2_sqrt + eps);
+      };
+      if (decoupled) p *= decay;
+      if (l2) moments_and_step(g + wd * p);
+      else moments_and_step(g);
+    });
     r.applied = true;
     return r;
   }
 
+  /// One L1-sized piece of one block: the unit of the parallel loops (and of the norm's sums).
+  struct Segment {
+    std::size_t block = 0;
+    Index begin = 0, length = 0;
+  };
+  static constexpr Index kSegment = 2048;
+
+  /// Cuts the blocks into segments_ (a partition that depends on the block sizes only); reuses
+  /// the vectors' storage, so steps after the first allocate nothing.
+  void list_segments(ParameterBlock<T>* const* blocks, std::size_t count) {
+    segments_.clear();
+    total_ = 0;
+    for (std::size_t k = 0; k < count; ++k) {
+      const Index n = blocks[k]->size();
+      total_ += n;
+      for (Index s0 = 0; s0 < n; s0 += kSegment) segments_.push_back({k, s0, std::min(kSegment, n - s0)});
+    }
+  }
+
+  /// body(i) for every segment: on `pool` when `split` (and a pool is given), else in order.
+  template <class Body>
+  void for_segments(ThreadPool* pool, bool split, Body&& body) const {
+    if (split && pool != nullptr) {
+      pool->parallel_for(0, segments_.size(), [&](std::size_t i) { body(i); });
+    } else {
+      for (std::size_t i = 0; i < segments_.size(); ++i) body(i);
+    }
+  }
+
   /// Σ gᵢ² in double, in four interleaved partial sums (a fixed order: the same bits on every
   /// call and thread count; one running sum would be a chain of dependent additions).
-  static double sum_of_squares(const Eigen::Map<VectorX<T>>& g) {
+  template <class Vector>
+  static double sum_of_squares(const Vector& g) {
     double lane[4] = {0, 0, 0, 0};
     const Index n = g.size(), n4 = n / 4 * 4;
     for (Index i = 0; i < n4; i += 4)
@@ -142,6 +188,9 @@ class Adam {
 
   AdamConfig config_;
   std::int64_t step_ = 0;
+  std::vector<Segment> segments_;    ///< step scratch: the blocks' segments
+  std::vector<double> segment_sq_;   ///< step scratch: Σ g² of each segment
+  Index total_ = 0;                  ///< step scratch: number of parameters
 };
 
 }  // namespace maskadapt::nn

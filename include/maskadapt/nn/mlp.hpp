@@ -234,8 +234,11 @@ class Mlp {
   const MatrixX<T>& forward_train(const Eigen::Ref<const MatrixX<T>>& x, TrainCache<T>& cache) const {
     check_input(x, "forward_train");
     const Index batch = x.cols(), L = num_layers();
-    cache.input = x;
     ThreadPool* pool = cache.pool ? cache.pool : default_pool();
+    cache.input.resize(x.rows(), batch);
+    for_each_column_chunk(pool, x.rows(), batch, [&](Index c0, Index c1) {
+      cache.input.middleCols(c0, c1 - c0) = x.middleCols(c0, c1 - c0);
+    });
     cache.pre.resize(static_cast<std::size_t>(L));
     cache.post.resize(static_cast<std::size_t>(L));
     for (Index l = 0; l < L; ++l) {

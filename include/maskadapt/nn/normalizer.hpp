@@ -10,8 +10,9 @@
 ///     normalize(x) = clamp((x − mean) / sqrt(var + eps), −clip, clip)      var = M2 / count
 ///
 /// The mean and 1/std in T that normalize() applies are recomputed when the statistics change,
-/// not per call, and update() reuses its buffers: neither allocates once it has seen the batch
-/// size (the training loop's update path allocates no matrix).
+/// not per call, and update() reuses its buffers: neither allocates (the training loop's update
+/// path allocates no matrix). Both split large batches over nn::default_pool() (normalize by
+/// columns, update by rows), with the same bits for any pool.
 #include <cmath>
 #include <string>
 
@@ -19,6 +20,7 @@
 
 #include "maskadapt/core/error.hpp"
 #include "maskadapt/core/types.hpp"
+#include "maskadapt/nn/chunks.hpp"
 
 namespace maskadapt::nn {
 
@@ -45,17 +47,31 @@ class RunningNormalizer {
   double eps() const { return eps_; }
 
   /// Adds a batch x (dim × B). Throws (statistics untouched) on a wrong shape or non-finite input.
+  /// The batch's mean and M2 are summed column by column in order (double), rows split over
+  /// default_pool() for large batches: the same bits for any pool.
   void update(const Eigen::Ref<const MatrixX<T>>& x) {
     require(x.rows() == dim(), "expected " + std::to_string(dim()) + " rows, got " + std::to_string(x.rows()),
             {{}, std::nullopt, "RunningNormalizer::update.x"});
     if (x.cols() == 0) return;
-    require_finite(x, "RunningNormalizer::update.x");
-    if (xd_.rows() != dim() || xd_.cols() < x.cols()) xd_.resize(dim(), x.cols());  // grows, never shrinks
-    auto xd = xd_.leftCols(x.cols());
-    xd = x.template cast<double>();
-    const double n = static_cast<double>(x.cols());
-    bmean_ = xd.rowwise().mean();
-    bm2_ = (xd.colwise() - bmean_).array().square().rowwise().sum().matrix();
+    const Index B = x.cols();
+    const double n = static_cast<double>(B);
+    bmean_.resize(dim());
+    bm2_.resize(dim());
+    const bool split = double(dim()) * double(B) >= kMinSplitElements;
+    for_each_chunk(default_pool(), dim(), split, [&](Index r0, Index r1) {
+      const Index nr = r1 - r0;
+      auto mean = bmean_.segment(r0, nr);
+      auto m2 = bm2_.segment(r0, nr);
+      mean.setZero();
+      for (Index j = 0; j < B; ++j) mean += x.col(j).segment(r0, nr).template cast<double>();
+      mean /= n;
+      m2.setZero();
+      for (Index j = 0; j < B; ++j)
+        m2.array() += (x.col(j).segment(r0, nr).template cast<double>() - mean).array().square();
+    });
+    // a NaN or ±inf anywhere in x makes its row's sums non-finite (floats cannot overflow a
+    // double sum), so the input scan runs only to name the bad entry
+    if (!bmean_.allFinite() || !bm2_.allFinite()) require_finite(x, "RunningNormalizer::update.x");
     merge_stats(n, bmean_, bm2_);
   }
 
@@ -71,11 +87,13 @@ class RunningNormalizer {
     require(x.rows() == dim() && out.rows() == dim() && out.cols() == x.cols(), "shape mismatch",
             {{}, std::nullopt, "RunningNormalizer::normalize"});
     const T c = static_cast<T>(clip_);
-    for (Index j = 0; j < x.cols(); ++j) {
-      auto o = out.col(j);
-      o = (x.col(j) - mean_t_).cwiseProduct(inv_std_t_);
-      if (clip_ > 0) o = o.cwiseMax(-c).cwiseMin(c);
-    }
+    for_each_column_chunk(default_pool(), x.rows(), x.cols(), [&](Index c0, Index c1) {
+      for (Index j = c0; j < c1; ++j) {
+        auto o = out.col(j);
+        o = (x.col(j) - mean_t_).cwiseProduct(inv_std_t_);
+        if (clip_ > 0) o = o.cwiseMax(-c).cwiseMin(c);
+      }
+    });
   }
   MatrixX<T> normalize(const Eigen::Ref<const MatrixX<T>>& x) const {
     MatrixX<T> out(x.rows(), x.cols());
@@ -128,7 +146,6 @@ class RunningNormalizer {
   VectorXd mean_, m2_;
   double clip_ = 5.0, eps_ = 1e-8;
   VectorX<T> mean_t_, inv_std_t_;  ///< (dim) mean and 1/sqrt(var + eps) in T, see refresh()
-  MatrixXd xd_;                    ///< update()'s batch in double (dim × ≥ B: the widest batch seen)
   VectorXd bmean_, bm2_, delta_;   ///< update()'s batch statistics
 };
 

@@ -13,6 +13,7 @@
 #include <maskadapt/core/error.hpp>
 #include <maskadapt/core/rng.hpp>
 #include <maskadapt/core/types.hpp>
+#include <maskadapt/nn/chunks.hpp>
 #include <maskadapt/nn/gaussian.hpp>
 #include <maskadapt/nn/mlp.hpp>
 #include <maskadapt/nn/normalizer.hpp>
@@ -101,14 +102,16 @@ struct GaussianActor {
     else out = x;
     if (hidden_groups.empty()) return;
     const Index n = static_cast<Index>(hidden_groups.size()), G = x.rows() - n;
-    for (Index j = 0; j < x.cols(); ++j) {
-      out.col(j).tail(G) = x.col(j).tail(G);
-      bool any = false;
-      for (Index g = 0; g < G; ++g) any = any || x(n + g, j) != T(0);
-      if (!any) continue;
-      for (Index i = 0; i < n; ++i)
-        if (x(n + hidden_groups[static_cast<std::size_t>(i)], j) != T(0)) out(i, j) = T(0);
-    }
+    nn::for_each_column_chunk(nn::default_pool(), x.rows(), x.cols(), [&](Index c0, Index c1) {
+      for (Index j = c0; j < c1; ++j) {
+        out.col(j).tail(G) = x.col(j).tail(G);
+        bool any = false;
+        for (Index g = 0; g < G; ++g) any = any || x(n + g, j) != T(0);
+        if (!any) continue;
+        for (Index i = 0; i < n; ++i)
+          if (x(n + hidden_groups[static_cast<std::size_t>(i)], j) != T(0)) out(i, j) = T(0);
+      }
+    });
   }
 
   /// Sets hidden_groups (one group per row of s̄; the remaining input rows are the group flags).

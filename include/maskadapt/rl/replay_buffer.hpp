@@ -8,6 +8,9 @@
 #include <maskadapt/core/error.hpp>
 #include <maskadapt/core/rng.hpp>
 #include <maskadapt/core/types.hpp>
+#include <maskadapt/nn/chunks.hpp>
+
+#include <vector>
 
 namespace maskadapt::rl {
 
@@ -44,7 +47,11 @@ class ReplayBuffer {
   void sample(Index n, Rng& rng, MatrixX<T>& out) const {
     require(size_ > 0, "cannot sample from an empty replay buffer", {{}, {}, "ReplayBuffer.sample"});
     out.resize(dim(), n);
-    for (Index j = 0; j < n; ++j) out.col(j) = data_.col(static_cast<Index>(rng.uniform_int(static_cast<std::uint64_t>(size_))));
+    picked_.resize(static_cast<std::size_t>(n));  // the draws in order, then the copies (in parallel)
+    for (Index& i : picked_) i = static_cast<Index>(rng.uniform_int(static_cast<std::uint64_t>(size_)));
+    nn::for_each_column_chunk(nn::default_pool(), dim(), n, [&](Index c0, Index c1) {
+      for (Index j = c0; j < c1; ++j) out.col(j) = data_.col(picked_[static_cast<std::size_t>(j)]);
+    });
   }
 
   /// Stored columns (dim × capacity); only the first `size()` … in ring order starting at
@@ -62,6 +69,7 @@ class ReplayBuffer {
 
  private:
   MatrixX<T> data_;  // (dim × capacity)
+  mutable std::vector<Index> picked_;  ///< sample()'s column draws (scratch, reused)
   Index size_ = 0, head_ = 0;
 };
 

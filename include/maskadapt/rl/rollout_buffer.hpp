@@ -22,6 +22,7 @@
 #include <maskadapt/core/rng.hpp>
 #include <maskadapt/core/types.hpp>
 #include <maskadapt/mask/parts.hpp>
+#include <maskadapt/nn/chunks.hpp>
 
 #include <algorithm>
 #include <cstdint>
@@ -136,11 +137,12 @@ inline std::vector<std::vector<Index>> minibatch_indices(Index num_samples, Inde
 /// Gathers the columns `idx` of `src` into `dst` (rows(src) × idx.size()); `dst` is resized.
 template <class Src, class Dst>
 void gather_columns(const Eigen::MatrixBase<Src>& src, const std::vector<Index>& idx, Eigen::MatrixBase<Dst>& dst) {
-  dst.derived().resize(src.rows(), static_cast<Index>(idx.size()));
-  for (std::size_t j = 0; j < idx.size(); ++j) {
-    require(idx[j] >= 0 && idx[j] < src.cols(), "column index out of range", {{}, {}, "minibatch index"});
-    dst.col(static_cast<Index>(j)) = src.col(idx[j]);
-  }
+  const Index n = static_cast<Index>(idx.size());
+  dst.derived().resize(src.rows(), n);
+  for (const Index i : idx) require(i >= 0 && i < src.cols(), "column index out of range", {{}, {}, "minibatch index"});
+  nn::for_each_column_chunk(nn::default_pool(), src.rows(), n, [&](Index c0, Index c1) {
+    for (Index j = c0; j < c1; ++j) dst.col(j) = src.col(idx[static_cast<std::size_t>(j)]);
+  });
 }
 
 }  // namespace maskadapt::rl

@@ -527,12 +527,14 @@ class BaseTrainer {
     double sum_real = 0, sum_fake = 0, sum_loss = 0, sum_gp = 0;
     for (Index s = 0; s < steps; ++s) {
       real_(rng_, real);
-      for (Index j = 0; j < B - half; ++j)
-        fake.col(j) = amp.col(static_cast<Index>(rng_.uniform_int(static_cast<std::uint64_t>(n))));
-      if (replay_.empty()) {
-        for (Index j = B - half; j < B; ++j)
-          fake.col(j) = amp.col(static_cast<Index>(rng_.uniform_int(static_cast<std::uint64_t>(n))));
-      } else {
+      // the draws in order, then the column copies (on the pool)
+      const Index fresh = replay_.empty() ? B : B - half;
+      fake_picked_.resize(static_cast<std::size_t>(fresh));
+      for (Index& i : fake_picked_) i = static_cast<Index>(rng_.uniform_int(static_cast<std::uint64_t>(n)));
+      nn::for_each_column_chunk(nn::default_pool(), D, fresh, [&](Index c0, Index c1) {
+        for (Index j = c0; j < c1; ++j) fake.col(j) = amp.col(fake_picked_[static_cast<std::size_t>(j)]);
+      });
+      if (!replay_.empty()) {
         replay_.sample(half, rng_, rep);
         fake.rightCols(half) = rep;
       }
@@ -644,6 +646,7 @@ class BaseTrainer {
     RowVectorXf lp_old, a_mb, lp_new, dlogp;
   } mb_;
   MatrixXf disc_real_, disc_fake_, disc_replayed_;  ///< update_discriminator's batches
+  std::vector<Index> fake_picked_;                   ///< update_discriminator's draws of fresh agent windows
   rl::Discriminator<float>::RewardWorkspace reward_ws_;
   MatrixXf bound_targets_;  ///< (action_dim × minibatch) PD targets of μ, for the bound penalty
   RowVectorXf logp_;
