@@ -6,6 +6,8 @@
 #   scripts/table2_grid.sh                       # every cell, seeds 1 and 2; cells already evaluated are skipped
 #   CELLS="b_ours b_cml" SEEDS="3 4" scripts/table2_grid.sh
 #   ITERATIONS=1000 THREADS=1 OUT=runs/t2 BIN=build/bin/maskadapt scripts/table2_grid.sh
+#   CELLS="a_ours a_cml" EXTRA_ARGS="--blend-resets 0.5" OUT=runs/t2br scripts/table2_grid.sh
+#                                                # extra train-residual flags for every cell (own OUT)
 #
 # Resumable and extendable like scripts/table3_grid.sh: a cell whose checkpoint exists continues it
 # (--resume, bit-exact) up to ITERATIONS; a cell with an eval_it<ITERATIONS>.txt is done.
@@ -28,6 +30,7 @@ OUT=${OUT:-runs/t2}
 RESIDUAL_STD_B=${RESIDUAL_STD_B:-0.15}
 DATA=${MASKADAPT_DATA_DIR:-../shared/data}/motions
 CELLS=${CELLS:-"a_ours a_cml b_ours b_cml c_ours c_cml"}
+EXTRA_ARGS=${EXTRA_ARGS:-}
 
 motion_for() {
   case "$1" in
@@ -68,7 +71,7 @@ for cell in $CELLS; do
     echo "== ${cell}_s$seed: $(date -u +%H:%M:%S) training to $ITERATIONS iterations in $dir"
     # shellcheck disable=SC2046
     train_or_resume "$dir" "$ITERATIONS" --task composition --method "$method" --base "$BASE" \
-      --new-motion $motion --masks "$(mask_for "$case_")" $(std_for "$case_") --threads "$THREADS" --seed "$seed"
+      --new-motion $motion --masks "$(mask_for "$case_")" $(std_for "$case_") $EXTRA_ARGS --threads "$THREADS" --seed "$seed"
     evaluate "$dir/checkpoint.bin" "$result"
   done
 done

@@ -54,7 +54,7 @@ struct Args {
   // Numeric values were range-checked while parsing (cli_checks.hpp); −1 means "not given".
   int envs = -1, threads = -1, goal_trajectories = -1, sample_every = -1;
   long long iterations = -1, seed = -1;
-  double minutes = -1, switch_rate = -1, episode_seconds = -1, term_threshold = -1, residual_std = -1;
+  double minutes = -1, switch_rate = -1, episode_seconds = -1, term_threshold = -1, residual_std = -1, blend_resets = -1;
   std::vector<Index> hidden;
   std::vector<std::string> composition_only, tracking_only;  ///< such flags given on the command line
 };
@@ -136,7 +136,8 @@ tasks::AnyGoalTask<MujocoHumanoidSim> make_goal_task(const std::string& task, co
 /// Builds the reward sources of a run.
 template <Simulator Sim>
 ResidualSetup<Sim> make_setup(const ResidualTrainConfig& c, const std::shared_ptr<MotionLibrary>& base_lib,
-                              const std::shared_ptr<MotionLibrary>& new_lib, const std::vector<BodyPart>& obs_parts) {
+                              const std::shared_ptr<MotionLibrary>& new_lib, const std::vector<BodyPart>& obs_parts,
+                              std::shared_ptr<const tasks::BlendedMotionSet> blends) {
   ResidualSetup<Sim> s;
   s.masks = tasks::parse_mask_set(c.masks, "--masks");
   s.switch_rate = c.switch_rate;
@@ -160,7 +161,7 @@ ResidualSetup<Sim> make_setup(const ResidualTrainConfig& c, const std::shared_pt
     return s;
   }
   if (c.method == "ours") {
-    auto set = std::make_shared<tasks::BlendedMotionSet>(*base_lib, *new_lib, s.masks);
+    auto set = blends ? blends : std::make_shared<const tasks::BlendedMotionSet>(*base_lib, *new_lib, s.masks);
     DiscriminatorSource src{"composition", 1.0, {}, true,
                             [set](Rng& r, Index B, MatrixXf& x, MatrixXf& m) { set->sample_real(r, B, x, m); },
                             [set](Rng& r, Index B, MatrixXf& x, MatrixXf& m) { set->sample_negative(r, B, x, m); }};
@@ -248,6 +249,7 @@ void run_train_residual(const Args& a) {
     if (a.term_threshold >= 0) c.term_threshold = a.term_threshold;
     if (!a.hidden.empty()) c.residual_hidden = a.hidden;
     if (a.residual_std > 0) c.residual_std = a.residual_std;
+    if (a.blend_resets >= 0) c.blend_resets = a.blend_resets;
     require(c.method == "scratch" || !a.base.empty(), "a base checkpoint is needed (or --method scratch)", {{}, {}, "--base"});
     if (c.method != "scratch") {
       // The frozen base's architecture and, unless --motions, its motion set A come from its checkpoint.
@@ -283,7 +285,7 @@ void run_train_residual(const Args& a) {
                              {{"env.num_envs", "--envs"}, {"run.threads", "--threads"}, {"run.iterations", "--iterations"},
                               {"run.minutes", "--minutes"}, {"run.out_dir", "--out"}, {"env.motions", "--motions"},
                               {"env.episode_seconds", "--episode-seconds"}, {"switch_rate", "--switch-rate"},
-                              {"masks", "--masks"}, {"task", "--task"}, {"method", "--method"}});
+                              {"masks", "--masks"}, {"task", "--task"}, {"method", "--method"}, {"blend_resets", "--blend-resets"}});
   require(c.task != "composition" || !c.new_motions.empty(), "composition needs --new-motion", {{}, {}, "--new-motion"});
 
   const MujocoCharacter& character = mujoco_character(c.rl.env.character, "env.character");
@@ -306,7 +308,16 @@ void run_train_residual(const Args& a) {
   FrozenBase base = resume ? FrozenBase{base_actor_like(c, obs_dim, A), {}}
                     : c.method == "scratch" ? scratch_base(c, obs_dim, A)
                                             : load_base_actor(*base_file, obs_dim, A);
-  ResidualSetup<MujocoHumanoidSim> setup = make_setup<MujocoHumanoidSim>(c, base_lib, new_lib, observation_parts(sim.skeleton()));
+  // resets from the part-wise blends (--blend-resets) use the set ours' discriminator samples
+  // from: the training masks (cml: its one fixed region)
+  std::shared_ptr<const tasks::BlendedMotionSet> blends;
+  if (c.task == "composition" && (c.method == "ours" || c.blend_resets > 0)) {
+    const std::vector<PartMask> masks = tasks::parse_mask_set(c.masks, "--masks");
+    blends = std::make_shared<const tasks::BlendedMotionSet>(
+        *base_lib, *new_lib, c.method == "ours" ? masks : std::vector<PartMask>{masks.front()});
+  }
+  ResidualSetup<MujocoHumanoidSim> setup =
+      make_setup<MujocoHumanoidSim>(c, base_lib, new_lib, observation_parts(sim.skeleton()), blends);
   if (c.task == "tracking") {
     require(!c.generator.empty(), "tracking needs --generator (train one with `maskadapt train-generator`)", {{}, {}, "--generator"});
     auto gen = std::make_shared<tracking::BuiltinGenerator>(tracking::BuiltinGenerator::load(c.generator, sim.skeleton()));
@@ -334,7 +345,8 @@ void run_train_residual(const Args& a) {
       << "\n";
   // the policy on the frozen base: the residual (ours, cml, scratch) or AdaptNet
   auto train = [&]<class Policy>() {
-    ResidualTrainer<MujocoHumanoidSim, Policy> trainer(sim, library_reset_sampler(base_lib), std::move(base), std::move(setup), c,
+    ResidualTrainer<MujocoHumanoidSim, Policy> trainer(sim, blended_reset_sampler(base_lib, blends, c.blend_resets),
+                                                       std::move(base), std::move(setup), c,
                                                        &pool, character.fall_criteria(c.rl.env.termination_height), &world);
     if (resume) {
       trainer.load(*resume);
@@ -682,6 +694,10 @@ const bool registered = maskadapt::cli::register_command([](CLI::App& app) {
   keep(c->add_option("--residual-std", a->residual_std,
                      "σ of the residual's exploration on the adapted DoFs (action units; default: the base's σ)"))
       ->check(positive_real(10.0));
+  keep(c->add_option("--blend-resets", a->blend_resets,
+                     "composition: share of resets from the part-wise blends of A and B (B's pose on the adapted "
+                     "parts; default 0: every reset from A)"))
+      ->check(probability());
   CLI::Option* preset = keep(c->add_option("--preset", a->preset, "cpu | paper"))->check(one_of({"cpu", "paper"}));
   keep(c->add_option("--envs", a->envs, "parallel envs"))->transform(integer_in(1, kMaxEnvs));
   keep(c->add_option("--threads", a->threads, "threads for simulation and network passes (0 = all cores)"))

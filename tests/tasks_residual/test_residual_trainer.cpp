@@ -5,6 +5,7 @@
 #include "residual_fixtures.hpp"
 
 #include <maskadapt/train/goal_eval.hpp>
+#include <maskadapt/train/motion_sources.hpp>
 #include <maskadapt/train/residual_eval.hpp>
 #include <maskadapt/train/residual_export.hpp>
 #include <maskadapt/adapt/adaptnet_policy.hpp>
@@ -702,6 +703,73 @@ TEST(ResidualConfig, KeepsTheResidualSigmaThroughJsonAndIntoTheNetwork) {
   } catch (const Error& e) {
     EXPECT_NE(std::string(e.what()).find("residual_std"), std::string::npos) << e.what();
   }
+}
+
+TEST(ResidualConfig, KeepsTheBlendResetShareThroughJsonAndRejectsBadValues) {
+  ResidualTrainConfig c;
+  c.blend_resets = 0.5;
+  EXPECT_EQ(residual_config_from_json(to_json(c)).blend_resets, 0.5);
+  nlohmann::json old = to_json(c);
+  old.erase("blend_resets");  // written before the field existed: every reset from A
+  EXPECT_EQ(residual_config_from_json(old).blend_resets, 0.0);
+  for (const double bad : {-0.1, 1.5, std::nan("")}) {
+    c.blend_resets = bad;
+    try {
+      c.validate();
+      ADD_FAILURE() << "blend_resets " << bad << " accepted";
+    } catch (const Error& e) {
+      EXPECT_NE(std::string(e.what()).find("blend_resets"), std::string::npos) << e.what();
+    }
+  }
+  c.blend_resets = 0.5;
+  c.task = "location";
+  EXPECT_THROW(c.validate(), Error);  // (blends exist for composition only)
+}
+
+// RSI from the part-wise blends (train/motion_sources.hpp): share 0 is exactly RSI from A (no
+// extra draw); share 1 puts B's joint angles on the adapted parts (lower body: the kick) and A's
+// on the rest and the root, at the time the stream draws.
+TEST(Composition, ResetsFromBlendsTakeBsPoseOnTheAdaptedParts) {
+  const Skeleton& skel = humanoid_skeleton();
+  auto a = std::make_shared<MotionLibrary>(skel), b = std::make_shared<MotionLibrary>(skel);
+  a->add(synthetic_walk());
+  b->add(synthetic_kick());
+  const PartMask lower = PartMask::parse("lower_body");
+  auto blends = std::make_shared<const tasks::BlendedMotionSet>(*a, *b, std::vector<PartMask>{lower});
+  const tasks::ResetSampler from_a = library_reset_sampler(a);
+  const tasks::ResetSampler none = blended_reset_sampler(a, blends, 0.0);
+  Rng r1(9), r2(9);
+  for (int k = 0; k < 20; ++k) {
+    const tasks::ResetSample x = from_a(r1), y = none(r2);
+    EXPECT_EQ(x.pose.q, y.pose.q);
+    EXPECT_EQ(x.pose.root_pos, y.pose.root_pos);
+    EXPECT_EQ(x.history, y.history);
+  }
+  const tasks::ResetSampler all = blended_reset_sampler(a, blends, 1.0);
+  Rng rng(10);
+  int lower_differs = 0;
+  for (int k = 0; k < 40; ++k) {
+    Rng probe = rng;  // the time this reset draws: after its Bernoulli and mask draws
+    (void)probe.bernoulli(1.0);
+    (void)probe.uniform_int(1);
+    const ClipTime ct = blends->library(0).sample(probe, true, (kAmpWindowFrames - 1) * kAmpFrameDt);
+    const tasks::ResetSample r = all(rng);
+    const KinematicState in_a = a->state(0, ct.time), in_b = b->state(0, ct.time);
+    EXPECT_EQ(r.pose.root_pos, in_a.root_pos);
+    bool differs = false;
+    for (int body = 1; body < skel.num_bodies(); ++body) {
+      const int o = skel.dof_offset(body), n = skel.num_dofs_of(body);
+      const bool adapted = lower.has(skel.parts[static_cast<std::size_t>(body)]);
+      if (n == 0 || (adapted && ct.time + 1e-9 >= b->clip(0).duration())) continue;  // (B looped: not compared)
+      const VectorXd want = adapted ? in_b.q.segment(o, n) : in_a.q.segment(o, n);
+      EXPECT_LT((r.pose.q.segment(o, n) - want).cwiseAbs().maxCoeff(), 1e-9) << "body " << body << " at " << ct.time;
+      if (adapted) differs = differs || (r.pose.q.segment(o, n) - in_a.q.segment(o, n)).cwiseAbs().maxCoeff() > 1e-3;
+    }
+    lower_differs += differs;
+  }
+  EXPECT_GT(lower_differs, 20) << "the resets' legs are the walk's, not the kick's";
+  EXPECT_THROW(blended_reset_sampler(a, blends, 1.5), Error);
+  EXPECT_THROW(blended_reset_sampler(a, nullptr, 0.5), Error);
 }
 
 TEST(ResidualConfig, KeepsTheTrackingPromptsThroughJson) {

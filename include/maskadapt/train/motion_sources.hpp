@@ -8,6 +8,7 @@
 #include <maskadapt/motion/library.hpp>
 #include <maskadapt/humanoid/synthetic.hpp>
 #include <maskadapt/sim/mujoco/character.hpp>
+#include <maskadapt/tasks/composition.hpp>
 #include <maskadapt/tasks/imitation.hpp>
 #include <maskadapt/train/base_trainer.hpp>
 
@@ -71,6 +72,30 @@ inline tasks::ResetSampler library_reset_sampler(std::shared_ptr<const MotionLib
     lib->amp_window(ct.clip, ct.time - kAmpFrameDt, w);  // frames t−5Δ … t−Δ; keep the last 4
     r.history = Eigen::Map<const MatrixXf>(w.data() + d, d, kAmpWindowFrames - 1);
     return r;
+  };
+}
+
+/// RSI for composition: a share `from_blends` of the resets (a Bernoulli draw per reset) starts
+/// from the part-wise blends — a mask of the set drawn uniformly, then a (clip, time) of its blend
+/// library, so the adapted parts start in a pose of B and the rest in one of A — and the others
+/// from A as library_reset_sampler(base). Lets the residual practise B's parts from B's own
+/// poses (a kick mid-swing) rather than only from A's. `from_blends` = 0 is exactly
+/// library_reset_sampler(base) (no extra draw). Note: the blend's mask is drawn here, apart from
+/// the env's episode mask; with a one-mask set they are the same.
+inline tasks::ResetSampler blended_reset_sampler(std::shared_ptr<const MotionLibrary> base,
+                                                 std::shared_ptr<const tasks::BlendedMotionSet> blends,
+                                                 double from_blends) {
+  require(std::isfinite(from_blends) && from_blends >= 0 && from_blends <= 1, "must be in [0, 1]",
+          {{}, std::nullopt, "blend_resets"});
+  tasks::ResetSampler from_a = library_reset_sampler(base);
+  if (from_blends == 0) return from_a;
+  require(blends != nullptr, "resets from blends need the blended motion set", {{}, std::nullopt, "blend_resets"});
+  std::vector<tasks::ResetSampler> from_blend;
+  for (std::size_t k = 0; k < blends->masks().size(); ++k)
+    from_blend.push_back(library_reset_sampler(std::shared_ptr<const MotionLibrary>(blends, &blends->library(k))));
+  return [from_a, from_blend, from_blends](Rng& rng) {
+    if (!rng.bernoulli(from_blends)) return from_a(rng);
+    return from_blend[static_cast<std::size_t>(rng.uniform_int(from_blend.size()))](rng);
   };
 }
 

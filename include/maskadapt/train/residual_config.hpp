@@ -36,6 +36,9 @@ struct ResidualTrainConfig {
   std::vector<std::string> masks = {"lower_body"}; ///< training mask set (cml / tracking: the first = fixed region)
   double switch_rate = 0.0;           ///< mid-episode mask switches per second (ours)
   double negative_fraction = 0.25;    ///< share of the fake batch that is negative-expert blends (ours)
+  /// composition: share of episode resets drawn from the part-wise blends (B on the adapted parts,
+  /// A on the rest) instead of from A; 0 = every reset from A (train/motion_sources.hpp)
+  double blend_resets = 0.0;
   std::vector<double> objective_weights;  ///< empty: cml 0.5/0.5, tracking 0.5/0.5, ours 1
   std::vector<Index> residual_hidden = {256, 256};
   std::string gain = "scalar";        ///< fixed | scalar | per_dof
@@ -67,6 +70,10 @@ struct ResidualTrainConfig {
     require(std::isfinite(residual_std) && residual_std >= 0, "must be finite and ≥ 0 (0 = the base's σ)",
             {{}, {}, "residual_std"});
     require(negative_fraction >= 0 && negative_fraction < 1, "must be in [0, 1)", {{}, {}, "negative_fraction"});
+    require(std::isfinite(blend_resets) && blend_resets >= 0 && blend_resets <= 1, "must be in [0, 1]",
+            {{}, {}, "blend_resets"});
+    require(blend_resets == 0 || task == "composition", "resets from blends need the composition task, not " + task,
+            {{}, {}, "blend_resets"});
     require(goal_steps >= 1 && sample_every >= 1 && goal_trajectories >= 1, "tracking counts must be ≥ 1", {{}, {}, "tracking"});
     require(term_window_s > 0, "must be > 0", {{}, {}, "term_window_s"});
     if (!goal_parts.empty()) {
@@ -86,6 +93,7 @@ inline nlohmann::json to_json(const ResidualTrainConfig& c) {
           {"masks", c.masks},
           {"switch_rate", c.switch_rate},
           {"negative_fraction", c.negative_fraction},
+          {"blend_resets", c.blend_resets},
           {"objective_weights", c.objective_weights},
           {"residual_hidden", c.residual_hidden},
           {"gain", c.gain},
@@ -113,6 +121,7 @@ inline ResidualTrainConfig residual_config_from_json(const nlohmann::json& j, co
     c.masks = j.at("masks").get<std::vector<std::string>>();
     c.switch_rate = j.at("switch_rate");
     c.negative_fraction = j.at("negative_fraction");
+    c.blend_resets = j.value("blend_resets", 0.0);  // (absent before it was recorded: every reset from A)
     c.objective_weights = j.at("objective_weights").get<std::vector<double>>();
     c.residual_hidden = j.at("residual_hidden").get<std::vector<Index>>();
     c.gain = j.at("gain");
