@@ -1,7 +1,7 @@
 // `maskadapt motion info|import|export`: inspect, retarget and convert motion files.
 //
 //   maskadapt motion info FILE [--joint-map MAP.json] [--markdown]
-//   maskadapt motion import FILE --out CLIP.npz [--joint-map MAP.json] [--fps 30] [--loop] [--label TEXT]…
+//   maskadapt motion import FILE --out CLIP.npz [--joint-map MAP.json] [--fps 30] [--from S] [--to S] [--loop] [--label TEXT]…
 //                           [--character humanoid|g1]
 //   maskadapt motion export CLIP --bvh OUT.bvh [--z-up]
 //
@@ -35,6 +35,7 @@ struct MotionOptions {
   std::string file, out, bvh_out, joint_map;
   std::string character = "humanoid";  ///< import: humanoid | g1
   double fps = 30.0;
+  double from_s = 0.0, to_s = -1.0;  ///< import: the time range kept (s; to < 0: to the end)
   bool loop = false, markdown = false, z_up = false;
   bool fps_given = false;  ///< --fps was on the command line
   std::vector<std::string> labels;
@@ -105,6 +106,13 @@ void import_cmd(const MotionOptions& o) {
   require(!o.fps_given || std::abs(c.fps - o.fps) < 1e-9,
           "only BVH and AMASS sources are resampled; this one stays at its own " + std::to_string(c.fps) + " fps",
           {o.file, std::nullopt, "--fps"});
+  if (o.from_s > 0 || o.to_s >= 0) {
+    try {
+      c = slice_seconds(c, o.from_s, o.to_s, "--from", "--to");
+    } catch (const Error& e) {
+      throw Error(e.message(), {o.file, std::nullopt, e.context().field});
+    }
+  }
   if (!o.labels.empty()) c.labels = o.labels;
   if (o.loop) c.loop = true;
   if (o.character == "g1") {
@@ -152,6 +160,10 @@ const bool registered = maskadapt::cli::register_command([](CLI::App& app) {
   imp->add_option("--out", opt->out, "output clip (.npz)")->required();
   imp->add_option("--joint-map", opt->joint_map, "joint map JSON for an unknown BVH skeleton");
   imp->add_option("--fps", opt->fps, "output frame rate (Hz)")->check(maskadapt::cli::positive_real(1000));
+  imp->add_option("--from", opt->from_s, "keep the frames from this time on (s from the first frame)")
+      ->check(maskadapt::cli::non_negative_real());
+  imp->add_option("--to", opt->to_s, "… up to this time (s, inclusive; default: the last frame)")
+      ->check(maskadapt::cli::non_negative_real());
   imp->add_flag("--loop", opt->loop, "mark the clip as cyclic");
   imp->add_option("--label", opt->labels, "text label (repeatable)");
   imp->add_option("--character", opt->character,

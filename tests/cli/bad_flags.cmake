@@ -212,6 +212,13 @@ endforeach()
 # a valid rate that would be ignored: built-in clips are not resampled
 bad(--fps - motion import synthetic:walk --out ${OUT}/x.npz --fps 60)
 bad(--character robot motion import synthetic:walk --out ${OUT}/x.npz --character robot)
+foreach(v -1 nan inf abc)
+  bad(--from ${v} motion import synthetic:walk --out ${OUT}/x.npz --from ${v})
+  bad(--to ${v} motion import synthetic:walk --out ${OUT}/x.npz --to ${v})
+endforeach()
+bad(--from - motion import synthetic:walk --out ${OUT}/x.npz --from 99)      # past the clip's end
+bad(--to - motion import synthetic:walk --out ${OUT}/x.npz --from 0.5 --to 0.5)  # one frame
+bad(--to - motion import synthetic:walk --out ${OUT}/x.npz --to 99)
 
 # ---- train-generator / generate ------------------------------------------------------------
 set(G train-generator --data ${OUT}/no_clips --out ${OUT}/never.ckpt)
@@ -277,6 +284,8 @@ good("train-generator" "stride 10\\)" train-generator --data ${OUT}/no_clips --i
 good("generate" "generated 15 frames" generate --checkpoint ${OUT}/gen.ckpt --seconds 0.5 --guidance 0 --seed 3
      --bvh ${OUT}/gen.bvh)
 good("motion import" "at 30 fps" motion import synthetic:walk --fps 30 --out ${OUT}/walk30.npz)
+good("motion import --from --to" "19 frames at 30 fps \\(0.60 s\\)" motion import synthetic:walk --from 0.2 --to 0.8
+     --out ${OUT}/walk_cut.npz)
 # onto the G1 (a G1 clip and its quality figures); on a shared clip when DATA has them
 good("motion import --character g1" "G1 clip, [0-9]+ frames.*joint-limit violations 0," motion import synthetic:walk
      --character g1 --out ${OUT}/walk_g1.npz)

@@ -248,3 +248,31 @@ TEST(Synthetic, ClipsAreGroundedValidAndLoop) {
   ASSERT_EQ(loco.size(), 1u);
   EXPECT_EQ(loco[0].name, "synthetic_walk");
 }
+
+// slice_seconds (motion import --from/--to): the frames nearest the two times, both included,
+// exactly as in the clip; errors name the field.
+TEST(MotionClip, SliceSecondsKeepsTheFramesOfTheRange) {
+  const MotionClip c = synthetic_walk(0.9, /*period=*/2.0);
+  ASSERT_GT(c.duration(), 1.6);
+  const MotionClip cut = slice_seconds(c, 0.5, 1.5);
+  ASSERT_EQ(cut.num_frames(), 31);  // frames 15 … 45 at 30 fps
+  EXPECT_EQ(cut.q, c.q.middleCols(15, 31));
+  EXPECT_EQ(cut.root_pos, c.root_pos.middleCols(15, 31));
+  EXPECT_EQ(cut.root_rot, c.root_rot.middleCols(15, 31));
+  EXPECT_FALSE(cut.loop);
+  EXPECT_EQ(slice_seconds(c, 0.51, -1).num_frames(), c.num_frames() - 15);  // to the last frame
+  auto field_of = [&](double from, double to) {
+    try {
+      (void)slice_seconds(c, from, to, "--from", "--to");
+    } catch (const Error& e) {
+      return e.context().field;
+    }
+    return std::string("accepted");
+  };
+  EXPECT_EQ(field_of(-0.1, 1.0), "--from");
+  EXPECT_EQ(field_of(std::nan(""), 1.0), "--from");
+  EXPECT_EQ(field_of(c.duration() + 1, -1), "--from");
+  EXPECT_EQ(field_of(0.5, c.duration() + 1), "--to");
+  EXPECT_EQ(field_of(0.5, 0.5), "--to");   // one frame
+  EXPECT_EQ(field_of(1.0, 0.5), "--to");   // backwards
+}

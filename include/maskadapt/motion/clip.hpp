@@ -22,6 +22,8 @@
 #include <maskadapt/motion/rotation.hpp>
 #include <maskadapt/motion/skeleton.hpp>
 
+#include <algorithm>
+#include <cmath>
 #include <string>
 #include <vector>
 
@@ -94,6 +96,31 @@ inline MotionClip slice(const MotionClip& c, int first, int count) {
   out.root_pos = c.root_pos.middleCols(first, count);
   out.root_rot = c.root_rot.middleCols(first, count);
   out.q = c.q.middleCols(first, count);
+  return out;
+}
+
+/// The frames of a clip from time `from_s` to `to_s` (seconds from its first frame, both
+/// inclusive, each rounded to the nearest frame) as a new, non-looping clip — e.g. the kick out of
+/// a clip that stands, steps, kicks and stands again. to_s < 0 means the last frame. Throws naming
+/// `from_field` / `to_field` when from_s is negative or past the end, or the range holds fewer
+/// than 2 frames.
+inline MotionClip slice_seconds(const MotionClip& c, double from_s, double to_s, const std::string& from_field = "from",
+                                const std::string& to_field = "to") {
+  const double end = c.duration();
+  require(std::isfinite(from_s) && from_s >= 0 && from_s <= end,
+          "start " + std::to_string(from_s) + " s is not within the clip (0 to " + std::to_string(end) + " s)",
+          {{}, std::nullopt, from_field});
+  if (to_s < 0) to_s = end;
+  require(std::isfinite(to_s) && to_s <= end + 0.5 / c.fps,
+          "end " + std::to_string(to_s) + " s is past the clip's last frame (" + std::to_string(end) + " s)",
+          {{}, std::nullopt, to_field});
+  const int first = static_cast<int>(std::lround(from_s * c.fps));
+  const int last = std::min(c.num_frames() - 1, static_cast<int>(std::lround(to_s * c.fps)));
+  require(last - first + 1 >= 2,
+          "the range " + std::to_string(from_s) + "–" + std::to_string(to_s) + " s holds fewer than 2 frames",
+          {{}, std::nullopt, to_field});
+  MotionClip out = slice(c, first, last - first + 1);
+  out.loop = false;
   return out;
 }
 
