@@ -88,9 +88,9 @@ class Adam {
   AdamStepResult step_impl(ParameterBlock<T>* const* blocks, std::size_t count) {
     validate();
     AdamStepResult r;
-    list_segments(blocks, count);
+    const Index total = list_segments(blocks, count);
     ThreadPool* pool = default_pool();
-    const bool split = static_cast<double>(total_) >= kMinSplitElements;
+    const bool split = static_cast<double>(total) >= kMinSplitElements;
     // Σ g² per segment (in parallel), then over segments in their order: the same bits for any pool
     segment_sq_.resize(segments_.size());
     for_segments(pool, split, [&](std::size_t i) {
@@ -152,16 +152,18 @@ class Adam {
   };
   static constexpr Index kSegment = 2048;
 
-  /// Cuts the blocks into segments_ (a partition that depends on the block sizes only); reuses
-  /// the vectors' storage, so steps after the first allocate nothing.
-  void list_segments(ParameterBlock<T>* const* blocks, std::size_t count) {
+  /// Cuts the blocks into segments_ (a partition that depends on the block sizes only) and
+  /// returns the number of parameters; reuses the vector's storage, so steps after the first
+  /// allocate nothing.
+  Index list_segments(ParameterBlock<T>* const* blocks, std::size_t count) {
     segments_.clear();
-    total_ = 0;
+    Index total = 0;
     for (std::size_t k = 0; k < count; ++k) {
       const Index n = blocks[k]->size();
-      total_ += n;
+      total += n;
       for (Index s0 = 0; s0 < n; s0 += kSegment) segments_.push_back({k, s0, std::min(kSegment, n - s0)});
     }
+    return total;
   }
 
   /// body(i) for every segment: on `pool` when `split` (and a pool is given), else in order.
@@ -190,7 +192,6 @@ class Adam {
   std::int64_t step_ = 0;
   std::vector<Segment> segments_;    ///< step scratch: the blocks' segments
   std::vector<double> segment_sq_;   ///< step scratch: Σ g² of each segment
-  Index total_ = 0;                  ///< step scratch: number of parameters
 };
 
 }  // namespace maskadapt::nn

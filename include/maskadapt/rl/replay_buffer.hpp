@@ -8,7 +8,7 @@
 #include <maskadapt/core/error.hpp>
 #include <maskadapt/core/rng.hpp>
 #include <maskadapt/core/types.hpp>
-#include <maskadapt/nn/chunks.hpp>
+#include <maskadapt/rl/rollout_buffer.hpp>
 
 #include <vector>
 
@@ -47,11 +47,9 @@ class ReplayBuffer {
   void sample(Index n, Rng& rng, MatrixX<T>& out) const {
     require(size_ > 0, "cannot sample from an empty replay buffer", {{}, {}, "ReplayBuffer.sample"});
     out.resize(dim(), n);
-    picked_.resize(static_cast<std::size_t>(n));  // the draws in order, then the copies (in parallel)
+    picked_.resize(static_cast<std::size_t>(n));  // the draws in order, then the copies (on the pool)
     for (Index& i : picked_) i = static_cast<Index>(rng.uniform_int(static_cast<std::uint64_t>(size_)));
-    nn::for_each_column_chunk(nn::default_pool(), dim(), n, [&](Index c0, Index c1) {
-      for (Index j = c0; j < c1; ++j) out.col(j) = data_.col(picked_[static_cast<std::size_t>(j)]);
-    });
+    copy_columns(data_, picked_, out);
   }
 
   /// Stored columns (dim × capacity); only the first `size()` … in ring order starting at

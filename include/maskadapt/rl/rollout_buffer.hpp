@@ -134,15 +134,25 @@ inline std::vector<std::vector<Index>> minibatch_indices(Index num_samples, Inde
   return out;
 }
 
-/// Gathers the columns `idx` of `src` into `dst` (rows(src) × idx.size()); `dst` is resized.
+/// dst.col(j) = src.col(idx[j]) for every j, with `dst` already (rows(src) × idx.size()) — a
+/// matrix or a block of one. The indices are checked first; the copies run in column chunks on
+/// nn::default_pool() when large (each column is copied by one thread: the same result for any pool).
 template <class Src, class Dst>
-void gather_columns(const Eigen::MatrixBase<Src>& src, const std::vector<Index>& idx, Eigen::MatrixBase<Dst>& dst) {
+void copy_columns(const Eigen::MatrixBase<Src>& src, const std::vector<Index>& idx, Dst&& dst) {
   const Index n = static_cast<Index>(idx.size());
-  dst.derived().resize(src.rows(), n);
+  require(dst.rows() == src.rows() && dst.cols() == n, "column copy into a block of the wrong shape",
+          {{}, {}, "minibatch columns"});
   for (const Index i : idx) require(i >= 0 && i < src.cols(), "column index out of range", {{}, {}, "minibatch index"});
   nn::for_each_column_chunk(nn::default_pool(), src.rows(), n, [&](Index c0, Index c1) {
     for (Index j = c0; j < c1; ++j) dst.col(j) = src.col(idx[static_cast<std::size_t>(j)]);
   });
+}
+
+/// Gathers the columns `idx` of `src` into `dst` (rows(src) × idx.size()); `dst` is resized.
+template <class Src, class Dst>
+void gather_columns(const Eigen::MatrixBase<Src>& src, const std::vector<Index>& idx, Eigen::MatrixBase<Dst>& dst) {
+  dst.derived().resize(src.rows(), static_cast<Index>(idx.size()));
+  copy_columns(src, idx, dst.derived());
 }
 
 }  // namespace maskadapt::rl

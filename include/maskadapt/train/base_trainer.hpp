@@ -531,9 +531,7 @@ class BaseTrainer {
       const Index fresh = replay_.empty() ? B : B - half;
       fake_picked_.resize(static_cast<std::size_t>(fresh));
       for (Index& i : fake_picked_) i = static_cast<Index>(rng_.uniform_int(static_cast<std::uint64_t>(n)));
-      nn::for_each_column_chunk(nn::default_pool(), D, fresh, [&](Index c0, Index c1) {
-        for (Index j = c0; j < c1; ++j) fake.col(j) = amp.col(fake_picked_[static_cast<std::size_t>(j)]);
-      });
+      rl::copy_columns(amp, fake_picked_, fake.leftCols(fresh));
       if (!replay_.empty()) {
         replay_.sample(half, rng_, rep);
         fake.rightCols(half) = rep;
