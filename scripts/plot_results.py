@@ -5,6 +5,7 @@
   scripts/plot_results.py paths  OUT.png NAME=root_xy.csv [NAME=…]            # root XY trajectories
   scripts/plot_results.py hnorm-summary NAME=eval.json [NAME=…]               # Table 1 rows (markdown)
   scripts/plot_results.py strip  OUT.png rollout.json [EVERY_N_FRAMES]       # side-view stick figures
+  scripts/plot_results.py feet   rollout.json [HEIGHT_M] [FROM_S]             # ankle lifts (is there a kick?)
 
 The plots need Debian's python3-matplotlib; the summary needs only Python.
 """
@@ -151,6 +152,39 @@ def strip(out, rollout_path, every=6):
     fig.savefig(out)
 
 
+def feet(rollout_path, height=0.30, from_s=0.0):
+    """How high the ankles go in a play --rollout file, from FROM_S seconds on: the highest ankle
+    (world height of the L_Ankle / R_Ankle body origins, metres) and the number of frames in which
+    either ankle is above HEIGHT metres. A walking step lifts the ankle to about 0.2-0.3 m; a kick
+    lifts it higher (docs/results.md, case (a))."""
+    with open(rollout_path) as f:
+        ro = json.load(f)
+    names = [b["name"] for b in ro["skeleton"]["bodies"]]
+    missing = [n for n in ("L_Ankle", "R_Ankle") if n not in names]
+    if missing:
+        sys.exit(f"plot_results.py feet: {rollout_path} has no body named {', '.join(missing)} "
+                 f"(skeleton bodies: {', '.join(names)})")
+    ankles = [names.index("L_Ankle"), names.index("R_Ankle")]
+    first = int(round(from_s * ro["fps"]))
+    frames = ro["frames"]["positions"][first:]  # per frame: 3 × bodies, world metres
+    if not frames:
+        sys.exit(f"plot_results.py feet: {rollout_path} has no frame after {from_s} s")
+    heights = [max(fr[3 * b + 2] for b in ankles) for fr in frames]
+    above = sum(1 for h in heights if h > height)
+    print(f"{rollout_path}: {len(frames)} frames from {from_s:g} s; highest ankle {max(heights):.3f} m; "
+          f"frames with an ankle above {height:.2f} m: {above}")
+
+
+def number(text, what):
+    try:
+        value = float(text)
+    except ValueError:
+        value = float("nan")
+    if not value >= 0.0 or value == float("inf"):
+        sys.exit(f"plot_results.py: {what} must be a finite number >= 0, got '{text}'")
+    return value
+
+
 def named(args):
     return [tuple(a.split("=", 1)) for a in args]
 
@@ -162,6 +196,8 @@ if __name__ == "__main__":
         paths(sys.argv[2], named(sys.argv[3:]))
     elif len(sys.argv) in (4, 5) and sys.argv[1] == "strip":
         strip(sys.argv[2], sys.argv[3], int(sys.argv[4]) if len(sys.argv) == 5 else 6)
+    elif 3 <= len(sys.argv) <= 5 and sys.argv[1] == "feet":
+        feet(sys.argv[2], *(number(a, what) for a, what in zip(sys.argv[3:], ("HEIGHT_M", "FROM_S"))))
     elif len(sys.argv) >= 3 and sys.argv[1] == "hnorm-summary":
         hnorm_summary(named(sys.argv[2:]))
     else:

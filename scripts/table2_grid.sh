@@ -8,6 +8,9 @@
 #   ITERATIONS=1000 THREADS=1 OUT=runs/t2 BIN=build/bin/maskadapt scripts/table2_grid.sh
 #   CELLS="a_ours a_cml" EXTRA_ARGS="--blend-resets 0.5" OUT=runs/t2br scripts/table2_grid.sh
 #                                                # extra train-residual flags for every cell (own OUT)
+#   CELLS="k_ours k_cml" SEEDS="1 2 3" scripts/table2_grid.sh
+#                                                # case (a) with B cut down to the kick itself
+#   CELLS="k_ours k_cml" BLEND_RESETS_K=0 OUT=runs/t2k0 scripts/table2_grid.sh   # …without the blend resets
 #
 # Resumable and extendable like scripts/table3_grid.sh: a cell whose checkpoint exists continues it
 # (--resume, bit-exact) up to ITERATIONS; a cell with an eval_it<ITERATIONS>.txt is done.
@@ -17,6 +20,10 @@
 # residual exploring at σ 0.15 (RESIDUAL_STD_B; at the base's σ the arms never reach the swim);
 # (c) styles/SNEAKY on the lower body (the walking upper body stands in for aiming). The legs keep
 # the base's σ: a wider one makes the walker fall in training (docs/composition.md).
+# (k) is case (a) with B cut down to the kick (2.6–3.7 s of styles/kick: the step into the kick, the
+# kick, the landing; imported once into $OUT/kick_cut.npz) and a share BLEND_RESETS_K (0.5) of the
+# episodes started from its blends: the whole clip is 90 % standing and stepping, and with it
+# neither method kicks (docs/results.md, case (a)).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 source scripts/grid_lib.sh
@@ -31,17 +38,34 @@ RESIDUAL_STD_B=${RESIDUAL_STD_B:-0.15}
 DATA=${MASKADAPT_DATA_DIR:-../shared/data}/motions
 CELLS=${CELLS:-"a_ours a_cml b_ours b_cml c_ours c_cml"}
 EXTRA_ARGS=${EXTRA_ARGS:-}
+BLEND_RESETS_K=${BLEND_RESETS_K:-0.5}
+KICK_CUT="$OUT/kick_cut.npz"
 
 motion_for() {
   case "$1" in
     a) echo "$DATA/styles/kick.bvh" ;;
     b) echo "$DATA/styles/swim.bvh" ;;
     c) echo "$DATA/styles/SNEAKY.bvh" ;;
-    *) echo "table2_grid: unknown case '$1' in CELLS (a, b or c)" >&2; exit 2 ;;
+    k) echo "$KICK_CUT" ;;
+    *) echo "table2_grid: unknown case '$1' in CELLS (a, b, c or k)" >&2; exit 2 ;;
   esac
 }
 mask_for() { [[ "$1" == b ]] && echo arms || echo lower_body; }
-std_for() { [[ "$1" == b ]] && echo "--residual-std $RESIDUAL_STD_B" || true; }
+# the case's own train-residual flags: σ 0.15 on the arms of (b), the blend resets of (k)
+case_args() {
+  case "$1" in
+    b) echo "--residual-std $RESIDUAL_STD_B" ;;
+    k) echo "--blend-resets $BLEND_RESETS_K" ;;
+  esac
+}
+
+# B of case (k): the kick alone, cut from styles/kick (written to a temporary name, then moved, so two
+# grids started together never read half a file)
+if [[ " $CELLS " == *" k_"* && ! -f "$KICK_CUT" ]]; then
+  mkdir -p "$OUT"
+  "$BIN" motion import "$DATA/styles/kick.bvh" --from 2.6 --to 3.7 --out "$KICK_CUT.$$.npz" >/dev/null
+  mv "$KICK_CUT.$$.npz" "$KICK_CUT"
+fi
 
 # evaluate CHECKPOINT RESULT — both thresholds into one text file (written last: its presence means done).
 evaluate() {
@@ -71,7 +95,7 @@ for cell in $CELLS; do
     echo "== ${cell}_s$seed: $(date -u +%H:%M:%S) training to $ITERATIONS iterations in $dir"
     # shellcheck disable=SC2046
     train_or_resume "$dir" "$ITERATIONS" --task composition --method "$method" --base "$BASE" \
-      --new-motion $motion --masks "$(mask_for "$case_")" $(std_for "$case_") $EXTRA_ARGS --threads "$THREADS" --seed "$seed"
+      --new-motion $motion --masks "$(mask_for "$case_")" $(case_args "$case_") $EXTRA_ARGS --threads "$THREADS" --seed "$seed"
     evaluate "$dir/checkpoint.bin" "$result"
   done
 done
