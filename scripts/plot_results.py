@@ -154,7 +154,7 @@ def strip(out, rollout_path, every=6):
 
 def feet(rollout_path, height=0.30, from_s=0.0):
     """How high the ankles go in a play --rollout file, from FROM_S seconds on: the highest ankle
-    (world height of the L_Ankle / R_Ankle body origins, metres) and the number of frames in which
+    (world height of the L_Ankle / R_Ankle body origins, metres), when, and the number of frames in which
     either ankle is above HEIGHT metres. A walking step lifts the ankle to about 0.2-0.3 m; a kick
     lifts it higher (docs/results.md, case (a))."""
     with open(rollout_path) as f:
@@ -171,8 +171,9 @@ def feet(rollout_path, height=0.30, from_s=0.0):
         sys.exit(f"plot_results.py feet: {rollout_path} has no frame after {from_s} s")
     heights = [max(fr[3 * b + 2] for b in ankles) for fr in frames]
     above = sum(1 for h in heights if h > height)
-    print(f"{rollout_path}: {len(frames)} frames from {from_s:g} s; highest ankle {max(heights):.3f} m; "
-          f"frames with an ankle above {height:.2f} m: {above}")
+    top = max(range(len(heights)), key=heights.__getitem__)
+    print(f"{rollout_path}: {len(frames)} frames from {from_s:g} s; highest ankle {heights[top]:.3f} m "
+          f"at {(first + top) / ro['fps']:.2f} s; frames with an ankle above {height:.2f} m: {above}")
 
 
 def number(text, what):
