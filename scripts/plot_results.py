@@ -6,6 +6,7 @@
   scripts/plot_results.py hnorm-summary NAME=eval.json [NAME=…]               # Table 1 rows (markdown)
   scripts/plot_results.py strip  OUT.png rollout.json [EVERY_N_FRAMES]       # side-view stick figures
   scripts/plot_results.py feet   rollout.json [HEIGHT_M] [FROM_S]             # ankle lifts (is there a kick?)
+  scripts/plot_results.py visits OUT.png NAME=eval.json [NAME=…]             # which frames of B are met
 
 The plots need Debian's python3-matplotlib; the summary needs only Python.
 """
@@ -176,6 +177,44 @@ def feet(rollout_path, height=0.30, from_s=0.0):
           f"at {(first + top) / ro['fps']:.2f} s; frames with an ankle above {height:.2f} m: {above}")
 
 
+def visits(out, runs):
+    """Share of the visits per frame of the new motion B, from `eval-residual --out eval.json`
+    (composition; first row of each file): the counts behind H_norm(adapted | B), clip after clip.
+    Prints each run's share per clip and draws one line per run."""
+    plt = pyplot()
+    fig, ax = plt.subplots(figsize=(6.4, 3.2), dpi=120)
+    clips = None
+    for name, path in runs:
+        with open(path) as f:
+            ev = json.load(f)
+        if ev.get("task") != "composition" or not ev.get("rows") or "visits_adapted_vs_new" not in ev["rows"][0]:
+            sys.exit(f"plot_results.py visits: {path} is not a composition eval-residual --out file with per-frame "
+                     f"visits (rows[0].visits_adapted_vs_new; written from this change on)")
+        counts = ev["rows"][0]["visits_adapted_vs_new"]
+        these = [(c["name"], c["frames"]) for c in ev["new_motion_clips"]]
+        if sum(n for _, n in these) != len(counts):
+            sys.exit(f"plot_results.py visits: {path}: {len(counts)} counts for {sum(n for _, n in these)} frames of B")
+        if clips is not None and these != clips:
+            sys.exit(f"plot_results.py visits: {path} was evaluated against another B than {runs[0][1]}")
+        clips = these
+        total = sum(counts) or 1
+        ax.plot(range(len(counts)), [c / total for c in counts], label=name)
+        print(f"{name}: {sum(counts)} visits, threshold {ev['threshold_per_body_m']} m per body, "
+              f"{sum(1 for c in counts if c)} of {len(counts)} frames of B visited")
+    start = 0
+    for clip, n in clips:
+        if start:
+            ax.axvline(start - 0.5, color="0.6", lw=0.8)
+        ax.text(start, ax.get_ylim()[1], " " + clip, va="top", fontsize=7)
+        start += n
+    ax.set_xlabel("frame of B (clip after clip)")
+    ax.set_ylabel("share of the visits")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(out)
+
+
 def number(text, what):
     try:
         value = float(text)
@@ -199,6 +238,8 @@ if __name__ == "__main__":
         strip(sys.argv[2], sys.argv[3], int(sys.argv[4]) if len(sys.argv) == 5 else 6)
     elif 3 <= len(sys.argv) <= 5 and sys.argv[1] == "feet":
         feet(sys.argv[2], *(number(a, what) for a, what in zip(sys.argv[3:], ("HEIGHT_M", "FROM_S"))))
+    elif len(sys.argv) >= 4 and sys.argv[1] == "visits":
+        visits(sys.argv[2], named(sys.argv[3:]))
     elif len(sys.argv) >= 3 and sys.argv[1] == "hnorm-summary":
         hnorm_summary(named(sys.argv[2:]))
     else:

@@ -620,6 +620,7 @@ void run_eval(const EvalArgs& a) {
     j["envs"] = a.envs;
     j["frames"] = a.frames;
     j["threshold_per_body_m"] = a.threshold_per_body;
+    j["new_motion_clips"] = clip_list_json(*new_lib);  // the frames of rows[i].visits_adapted_vs_new
     j["rows"] = nlohmann::json::array();
     for (const auto& r : rows) j["rows"].push_back(to_json(r));
   } else {

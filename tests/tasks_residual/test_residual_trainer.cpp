@@ -402,6 +402,41 @@ TEST(ResidualEval, NormalisedBaseTargetsAreTheBasesOwnUntilTheResidualActsOnMask
   }
 }
 
+// The per-frame visits eval-residual writes (`visits_adapted_vs_new`) are the counts H_norm(adapted | B)
+// is computed from: one per frame of B in clip order (`clip_list_json` names them), with that
+// normalised entropy; with a threshold wider than any distance every generated frame visits every
+// frame of B once, so each count is envs × frames and H_norm is 1.
+TEST(ResidualEval, PerFrameVisitsOfBAreTheCountsBehindItsHNorm) {
+  Data d;
+  const Skeleton& skel = d.skel;
+  const PartMask arms = PartMask::parse("arms");
+  adapt::ResidualConfig rc;
+  rc.hidden = {16};
+  Rng init(2);
+  adapt::ResidualPolicy<float> pol(tiny_base(skel), observation_dim(skel), action_parts(skel), rc, init, tiny_space(skel));
+  std::int64_t b_frames = 0;
+  for (int c = 0; c < d.added.num_clips(); ++c) b_frames += d.added.clip(c).num_frames();
+  const nlohmann::json clips = clip_list_json(d.added);
+  ASSERT_EQ(clips.size(), 1u);
+  EXPECT_EQ(clips[0]["name"], "arms_swing");
+  EXPECT_EQ(clips[0]["frames"].get<std::int64_t>(), b_frames);
+
+  CompositionEvalOptions opt;
+  opt.frames = 20;
+  for (const double threshold : {0.1, 1e3}) {
+    opt.threshold_per_body = threshold;
+    RecordingSim sim(3);
+    const CompositionResult r = evaluate_composition(sim, pol, arms, d.base, d.added, upright(skel), tiny_fall(skel), opt);
+    ASSERT_EQ(static_cast<std::int64_t>(r.visits_adapted.size()), b_frames) << threshold;
+    EXPECT_DOUBLE_EQ(eval::normalized_entropy(r.visits_adapted), r.h_adapted) << threshold;
+    EXPECT_EQ(to_json(r)["visits_adapted_vs_new"].get<std::vector<std::int64_t>>(), r.visits_adapted) << threshold;
+    if (threshold > 1.0) {
+      for (const std::int64_t v : r.visits_adapted) EXPECT_EQ(v, 3 * opt.frames);
+      EXPECT_NEAR(r.h_adapted, 1.0, 1e-12);  // Σ p log p of a uniform p, rounded
+    }
+  }
+}
+
 // Identity bases are untouched: a bare actor and FrozenBase{actor, identity} train the same bits,
 // and the checkpoint holds no action-space sections (it is the checkpoint of before).
 TEST(ResidualTrainer, IdentityBaseWritesNoActionSpace) {

@@ -42,6 +42,7 @@
 #include <nlohmann/json.hpp>
 
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <optional>
 #include <string>
@@ -65,6 +66,9 @@ struct CompositionResult {
   double matched_rest = 0;       ///< … of some A frame
   double fall_rate = NAN;        ///< falls / ended episodes (NaN: none ended)
   long long falls = 0;
+  /// (frames of B, clip after clip in library order) the visit counts behind h_adapted: how many
+  /// generated frames came within the threshold of each of B's frames — which part of B is met.
+  std::vector<std::int64_t> visits_adapted;
 };
 
 /// The imitation task an evaluation steps the policy in: RSI resets, falls and the episode limit,
@@ -149,6 +153,7 @@ CompositionResult evaluate_composition(Sim& sim, const adapt::ResidualPolicy<flo
   const auto vb = eval::visitation_entropy(ref_b, gen_b, opt.threshold_per_body * std::sqrt(bodies_in(skel, mask)));
   const auto va = eval::visitation_entropy(ref_a, gen_a, opt.threshold_per_body * std::sqrt(bodies_in(skel, ~mask)));
   r.h_adapted = vb.h_norm;
+  r.visits_adapted = vb.counts;
   r.h_rest = va.h_norm;
   r.matched_adapted = static_cast<double>(vb.matched_generated) / static_cast<double>(gen_b.cols());
   r.matched_rest = static_cast<double>(va.matched_generated) / static_cast<double>(gen_a.cols());
@@ -290,7 +295,15 @@ inline nlohmann::json to_json(const CompositionResult& r) {
   return {{"mask", r.mask.to_string()},         {"h_norm_adapted_vs_new", num(r.h_adapted)},
           {"h_norm_rest_vs_base", num(r.h_rest)}, {"matched_adapted", num(r.matched_adapted)},
           {"matched_rest", num(r.matched_rest)},  {"fall_rate", num(r.fall_rate)},
-          {"falls", r.falls}};
+          {"falls", r.falls},                     {"visits_adapted_vs_new", r.visits_adapted}};
+}
+
+/// The clips of a motion set as `[{"name", "frames"}, …]`, in library order: the key to the
+/// per-frame visit counts of a CompositionResult.
+inline nlohmann::json clip_list_json(const MotionLibrary& lib) {
+  nlohmann::json out = nlohmann::json::array();
+  for (int c = 0; c < lib.num_clips(); ++c) out.push_back({{"name", lib.clip(c).name}, {"frames", lib.clip(c).num_frames()}});
+  return out;
 }
 
 inline nlohmann::json to_json(const TrackingEvaluation& ev) {
