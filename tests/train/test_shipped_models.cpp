@@ -124,19 +124,22 @@ bool same_base(const Checkpoint& stage2, const Checkpoint& base_model) {
 }
 
 // The Table 2 policies (issue 15, models/table2/): a new motion composed onto one part of the
-// Table 1 MI base by ours and by the CML-style baseline, two seeds per cell (six for (b)) — case (a) the kick on
-// the legs and (c) the sneaky walk on the legs (the residual explores with the base's σ), (b) the
-// swim on the arms (with σ 0.15, `--residual-std 0.15`). Each is what its name says, on that base, with the σ it was trained with.
+// Table 1 MI base by ours and by the CML-style baseline, two seeds per cell (eight for (b), three for
+// the cut kick) — case (a) the kick on the legs, the same with B cut down to the kick and half the
+// resets from its blends (`--blend-resets 0.5`), and (c) the sneaky walk on the legs (the residual
+// explores with the base's σ), (b) the swim on the arms (with σ 0.15, `--residual-std 0.15`). Each is
+// what its name says, on that base, with the σ and reset share it was trained with.
 TEST(ShippedModels, Table2PoliciesAreTheCellsTheyClaimToBe) {
   struct Case {
     const char *file, *motion, *mask;
     double residual_std;  // 0: the base's σ
     int seeds;            // s1 … s<seeds>
+    double blend_resets = 0.0;
   };
   const Skeleton& skel = humanoid_skeleton();
   const Checkpoint base = load_checkpoint(MASKADAPT_SOURCE_DIR "/models/table1/mask_mi03_s1.bin");
-  for (const Case& k : {Case{"kick", "kick", "lower_body", 0.0, 2}, Case{"swim", "swim", "arms", 0.15, 6},
-                        Case{"sneak", "SNEAKY", "lower_body", 0.0, 2}})
+  for (const Case& k : {Case{"kick", "kick.bvh", "lower_body", 0.0, 2}, Case{"kick_cut", "kick_cut.npz", "lower_body", 0.0, 3, 0.5},
+                        Case{"swim", "swim", "arms", 0.15, 8}, Case{"sneak", "SNEAKY", "lower_body", 0.0, 2}})
     for (const char* method : {"ours", "cml"})
       for (int seed = 1; seed <= k.seeds; ++seed) {
         const std::string path = std::string(MASKADAPT_SOURCE_DIR "/models/table2/") + k.file + "_" + method + "_s" +
@@ -151,6 +154,7 @@ TEST(ShippedModels, Table2PoliciesAreTheCellsTheyClaimToBe) {
         EXPECT_EQ(cfg.rl.run.seed, static_cast<std::uint64_t>(seed)) << path;
         EXPECT_EQ(c.get_int("trainer/iteration"), 1000) << path;
         EXPECT_EQ(cfg.residual_std, k.residual_std) << path;
+        EXPECT_EQ(cfg.blend_resets, k.blend_resets) << path;
         EXPECT_TRUE(same_base(c, base)) << path;
         const auto pol = stage2_policy_from_checkpoint<adapt::ResidualPolicy<float>>(c, skel);
         // The residual explores with the σ it was trained with: the asked one, else the base's.
