@@ -14,8 +14,8 @@
 #   ablation/{amp,mask_no_mi,mi_0.1,mi_1.0}/log.jsonl → training_logs.png (episode_length, mi_kl)
 # and, from models/ with the built `maskadapt` (MASKADAPT_CLI), shipped_walker.png (SHIPPED_T, default 2 s)
 # and fig5c_viewer_{before,after}.png (models/table2/sneak_ours_s1.bin, mask switched at 3 s), and
-# fig5a_/fig5b_viewer_{before,after}.png (models/table2/{kick,swim}_ours_s1.bin, likewise; after-pictures at
-# 4.5 s and 5.0 s, where the swim's wrists are highest), and
+# fig5a_/fig5b_viewer_{before,after}.png (models/table2/{kick_cut,swim}_ours_s1.bin, likewise; after-pictures at
+# 5.4 s and 5.0 s, where the kicking ankle and the swim's wrists are highest), and
 # generator_switch_{walk,wave}.png (models/text_generator.bin, "0:walk,2:wave right hand" from a
 # Bandai walk in $MASKADAPT_DATA_DIR), and g1_walker.png (models/g1_mask_mi_walk_bandai.bin, G1_T default 3 s).
 # Times: WALK_T (default 0.6 s: the short CPU-trained bases fall after ≈1 s), SWITCH_T (the switch, default 5 s; pictures at SWITCH_T − 1 s and
@@ -147,10 +147,11 @@ fi
 
 # (f2) the shipped Table 2 cases (a) and (b) (the paper's Fig. 5a, jump + kick, and 5b, locomotion +
 # arm rotation; here walk + kick and walk + swim), mask switched at 3 s as in (f).
-for fig in "fig5a kick lower_body 4.5" "fig5b swim arms 5.0"; do
-  read -r name motion part t_after <<<"$fig"
+# 5a uses the kick-only B (kick_cut_*): with the whole kick clip as B no kick is learnt.
+for fig in "fig5a kick_cut kick lower_body 5.4" "fig5b swim swim arms 5.0"; do
+  read -r name file motion part t_after <<<"$fig"
   picture="${name}_viewer_before.png, ${name}_viewer_after.png"
-  model="models/table2/${motion}_ours_s1.bin"
+  model="models/table2/${file}_ours_s1.bin"
   if have "$repo/$model" "$cli" &&
      rollout_of "$name" play-residual "$model" --mask-schedule "0:none,3:$part" --seconds 6 --seed 1; then
     take "${name}_viewer_before.png" --rollout "$rollout" --label "$model: no mask (the base walks)" --time 2
