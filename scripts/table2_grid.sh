@@ -67,10 +67,12 @@ if [[ " $CELLS " == *" k_"* && ! -f "$KICK_CUT" ]]; then
   mv "$KICK_CUT.$$.npz" "$KICK_CUT"
 fi
 
-# evaluate CHECKPOINT RESULT — both thresholds into one text file (written last: its presence means done).
+# evaluate CHECKPOINT RESULT — both thresholds into one text file (written last: its presence means
+# done), and each as JSON beside it (RESULT without .txt, + _0.1.json / _0.3.json: the per-frame visits
+# of B, for `plot_results.py visits`).
 evaluate() {
-  { "$BIN" eval-residual "$1" --task composition --envs 10 --frames 1000
-    "$BIN" eval-residual "$1" --task composition --envs 10 --frames 1000 --threshold 0.3; } > "$2.tmp"
+  { "$BIN" eval-residual "$1" --task composition --envs 10 --frames 1000 --out "${2%.txt}_0.1.json"
+    "$BIN" eval-residual "$1" --task composition --envs 10 --frames 1000 --threshold 0.3 --out "${2%.txt}_0.3.json"; } > "$2.tmp"
   mv "$2.tmp" "$2"
   cat "$2"
 }
