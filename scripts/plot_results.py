@@ -185,11 +185,14 @@ def visits(out, runs):
     fig, ax = plt.subplots(figsize=(6.4, 3.2), dpi=120)
     clips = None
     for name, path in runs:
-        with open(path) as f:
-            ev = json.load(f)
-        if ev.get("task") != "composition" or not ev.get("rows") or "visits_adapted_vs_new" not in ev["rows"][0]:
+        try:
+            with open(path) as f:
+                ev = json.load(f)
+        except (OSError, ValueError) as e:
+            sys.exit(f"plot_results.py visits: cannot read {path}: {e}")
+        if not isinstance(ev, dict) or ev.get("task") != "composition" or not ev.get("rows") or "visits_adapted_vs_new" not in ev["rows"][0]:
             sys.exit(f"plot_results.py visits: {path} is not a composition eval-residual --out file with per-frame "
-                     f"visits (rows[0].visits_adapted_vs_new; written from this change on)")
+                     f"visits (rows[0].visits_adapted_vs_new: rerun eval-residual --out with a current build)")
         counts = ev["rows"][0]["visits_adapted_vs_new"]
         these = [(c["name"], c["frames"]) for c in ev["new_motion_clips"]]
         if sum(n for _, n in these) != len(counts):
@@ -226,6 +229,9 @@ def number(text, what):
 
 
 def named(args):
+    bad = [a for a in args if "=" not in a]
+    if bad:
+        sys.exit(f"plot_results.py: expected NAME=FILE, got '{bad[0]}'")
     return [tuple(a.split("=", 1)) for a in args]
 
 
