@@ -53,7 +53,7 @@ void run_eval_base(const EvalBaseArgs& a) {
   const LoadedBasePolicy loaded =
       load_base_policy(ck, {d, d + kNumParts, sim.skeleton().num_dofs(), d * kAmpWindowFrames}, a.checkpoint);
   const auto motions = a.motions.empty() ? loaded.config.env.motions : a.motions;
-  auto lib = load_motion_library(motions, motion_data_dir(MASKADAPT_SOURCE_DIR "/../shared/data"), character);
+  auto lib = load_motion_library(motions, motion_data_dir(maskadapt::cli::source_dir() + "/../shared/data"), character);
   const MatrixXf reference = reference_visitation_features(*lib);
 
   EvalBaseOptions opt;
@@ -111,7 +111,7 @@ struct ThresholdArgs {
 
 void run_hnorm_threshold(const ThresholdArgs& a) {
   using namespace maskadapt;
-  auto lib = train::load_motion_library(a.motions, motion_data_dir(MASKADAPT_SOURCE_DIR "/../shared/data"));
+  auto lib = train::load_motion_library(a.motions, motion_data_dir(maskadapt::cli::source_dir() + "/../shared/data"));
   const MatrixXf reference = train::reference_visitation_features(*lib);
   std::vector<Index> clip_frames;
   for (int c = 0; c < lib->num_clips(); ++c) clip_frames.push_back(lib->clip(c).num_frames());

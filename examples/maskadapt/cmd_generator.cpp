@@ -33,11 +33,11 @@ using namespace maskadapt::tracking;
 std::string data_root(const std::string& flag) {
   if (!flag.empty()) return flag;
   if (const char* e = std::getenv("MASKADAPT_DATA_DIR"); e && *e) return e;
-  return std::string(MASKADAPT_SOURCE_DIR) + "/../shared/data";
+  return maskadapt::cli::source_dir() + "/../shared/data";
 }
 
 /// The shipped generator (models/README.md "text_generator.bin").
-std::string shipped_generator() { return std::string(MASKADAPT_SOURCE_DIR) + "/models/text_generator.bin"; }
+std::string shipped_generator() { return maskadapt::cli::source_dir() + "/models/text_generator.bin"; }
 
 std::string machine_line() {
   std::ifstream f("/proc/cpuinfo");

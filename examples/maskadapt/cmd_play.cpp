@@ -48,7 +48,7 @@ void run_play(const PlayArgs& a) {
                         sim.skeleton().num_dofs(), observation_dim(sim.skeleton()) * kAmpWindowFrames};
   const LoadedBasePolicy loaded = load_base_policy(ck, dims, a.checkpoint);
   const auto motions = a.motions.empty() ? loaded.config.env.motions : a.motions;
-  auto lib = load_motion_library(motions, motion_data_dir(MASKADAPT_SOURCE_DIR "/../shared/data"), character);
+  auto lib = load_motion_library(motions, motion_data_dir(maskadapt::cli::source_dir() + "/../shared/data"), character);
 
   PlayOptions opt;
   opt.seconds = a.seconds;

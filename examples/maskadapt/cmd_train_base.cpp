@@ -89,7 +89,7 @@ void run_train_base(const TrainBaseArgs& a) {
   throw Error("this build has no MuJoCo; train-base needs the maskadapt::mujoco target", {{}, std::nullopt, "train-base"});
 #else
   const MujocoCharacter& character = mujoco_character(cfg.env.character, "env.character");
-  auto lib = load_motion_library(cfg.env.motions, motion_data_dir(MASKADAPT_SOURCE_DIR "/../shared/data"), character);
+  auto lib = load_motion_library(cfg.env.motions, motion_data_dir(maskadapt::cli::source_dir() + "/../shared/data"), character);
   const std::size_t envs_here = cli::envs_per_rank(world, cfg.env.num_envs);
   out << "train-base: " << character.name << " (" << character.skeleton.num_dofs() << " DoF), " << lib->num_clips()
       << " clip(s), " << lib->total_duration() << " s of motion; "

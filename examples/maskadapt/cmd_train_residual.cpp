@@ -78,7 +78,7 @@ std::string describe_actions(const tasks::ActionSpace& s, const NetworkConfig& n
          net.action_scale + ")";
 }
 
-std::string data_dir() { return motion_data_dir(MASKADAPT_SOURCE_DIR "/../shared/data"); }
+std::string data_dir() { return motion_data_dir(maskadapt::cli::source_dir() + "/../shared/data"); }
 
 /// The default tracking prompts: the arms-related labels of the labelled clips (the shared CMU
 /// clips when present, plus the built-in synthetic clips); the fixed list when none is found.

@@ -36,6 +36,12 @@ const char* build_commit_id();
 /// The git commit the executable was built from ("unknown" outside a git checkout).
 inline std::string build_commit() { return build_commit_id(); }
 
+/// The source tree the executable was configured from (models/, configs/, ../shared/data).
+/// Defined in a source that cmake/build_paths.cmake generates, not a compile definition: an
+/// absolute path of the checkout in the flags would enter the compiler-cache key of every
+/// cmd_*.cpp, and a clone in another folder would recompile them all.
+std::string source_dir();
+
 /// "2026-12-01T20:15:00Z git 1a2b3c4: maskadapt train-base …" — one line of a run's provenance.
 inline std::string provenance_line() {
   char when[32] = "unknown time";

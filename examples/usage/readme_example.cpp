@@ -12,9 +12,13 @@
 #include <iostream>
 #include <string>
 
+namespace maskadapt::example {
+std::string models_dir();  // this checkout's models/ (defined in a file examples/CMakeLists.txt generates)
+}
+
 int main(int argc, char** argv) try {
   using namespace maskadapt;
-  const std::string model = argc > 1 ? argv[1] : MASKADAPT_MODELS_DIR "/mask_mi_walk_bandai.bin";
+  const std::string model = argc > 1 ? argv[1] : example::models_dir() + "/mask_mi_walk_bandai.bin";
   const PartMask mask = PartMask::parse(argc > 2 ? argv[2] : "left_leg,right_leg", "MASK");
 
   ThreadPool pool(2);

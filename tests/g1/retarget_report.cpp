@@ -10,6 +10,8 @@
 #include <maskadapt/motion/quality.hpp>
 #include <maskadapt/humanoid/retarget.hpp>
 
+#include "../build_paths.hpp"
+
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
@@ -24,9 +26,7 @@ int main(int argc, char** argv) {
   if (argc > 1) base = argv[1];
   if (base.empty())
     if (const char* e = std::getenv("MASKADAPT_DATA_DIR"); e && *e) base = e;
-#ifdef MASKADAPT_DEFAULT_DATA_DIR
-  if (base.empty()) base = MASKADAPT_DEFAULT_DATA_DIR;
-#endif
+  if (base.empty()) base = maskadapt::build_paths::default_data_dir();
   const std::filesystem::path motions = std::filesystem::path(base) / "motions";
   if (!std::filesystem::is_directory(motions)) {
     std::fprintf(stderr, "no motions/ under '%s' (pass the data directory or set MASKADAPT_DATA_DIR)\n", base.c_str());

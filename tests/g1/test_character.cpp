@@ -13,6 +13,8 @@
 #include <maskadapt/train/play.hpp>
 #include <maskadapt/train/policy_export.hpp>
 
+#include "../build_paths.hpp"
+
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -125,7 +127,7 @@ TEST(G1Character, TheHumanoidCharacterIsTheDescriptionsModel) {
 // The robot's shipped walkers (models/README.md): policy-only exports on the robot's dims that say
 // how they were trained, and that walk 10 s on the simulated robot from a real walk's frames.
 TEST(ShippedG1Models, WalkTenSecondsOnTheRobot) {
-  const std::string data = motion_data_dir(MASKADAPT_DEFAULT_DATA_DIR);
+  const std::string data = motion_data_dir(maskadapt::build_paths::default_data_dir());
   const std::string walk = data + "/motions/bandai/locomotion/dataset-1_walk_normal_001.bvh";
   struct Model {
     const char* file;
@@ -135,7 +137,7 @@ TEST(ShippedG1Models, WalkTenSecondsOnTheRobot) {
   };
   for (const Model m : {Model{"g1_amp_walk_bandai.bin", 5969, false, "none"},
                         Model{"g1_mask_mi_walk_bandai.bin", 7470, true, "left_leg,right_leg"}}) {
-    const std::string path = std::string(MASKADAPT_SOURCE_DIR "/models/") + m.file;
+    const std::string path = maskadapt::build_paths::source_dir() + "/models/" + m.file;
     const Checkpoint c = load_checkpoint(path);
     ASSERT_TRUE(train::is_policy_export(c)) << path;
     EXPECT_EQ(train::checkpoint_character(c), "g1") << path;

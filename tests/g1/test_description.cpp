@@ -2,6 +2,8 @@
 // the generated MJCF (deterministic, committed copy up to date). No MuJoCo needed.
 #include <maskadapt/g1/mjcf.hpp>
 
+#include "../build_paths.hpp"
+
 #include <gtest/gtest.h>
 
 #include <fstream>
@@ -135,7 +137,7 @@ TEST(G1Mjcf, DeterministicAndComplete) {
 }
 
 TEST(G1Mjcf, CommittedAssetIsUpToDate) {
-  const std::string path = std::string(MASKADAPT_SOURCE_DIR) + "/assets/g1.xml";
+  const std::string path = maskadapt::build_paths::source_dir() + "/assets/g1.xml";
   std::ifstream in(path, std::ios::binary);
   ASSERT_TRUE(in) << "missing " << path << " (regenerate: maskadapt_g1_mjcf " << path << ")";
   std::stringstream ss;

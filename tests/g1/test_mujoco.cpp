@@ -6,6 +6,7 @@
 #include <maskadapt/g1/skeleton.hpp>
 #include <maskadapt/sim/mujoco/humanoid_sim.hpp>  // mujoco_detail::load_model_from_string/_file
 
+#include "../build_paths.hpp"
 #include "../skeleton_vs_mujoco.hpp"
 
 #include <gtest/gtest.h>
@@ -232,7 +233,7 @@ TEST(G1Mujoco, SurvivesTenThousandRandomTargetSteps) {
 }
 
 TEST(G1Mujoco, CommittedAssetLoads) {
-  auto m = mujoco_detail::load_model_from_file(std::string(MASKADAPT_SOURCE_DIR) + "/assets/g1.xml");
+  auto m = mujoco_detail::load_model_from_file(maskadapt::build_paths::source_dir() + "/assets/g1.xml");
   EXPECT_EQ(m->nu, kNumJoints);
   EXPECT_EQ(m->nbody, kNumBodies + 1);
 }
@@ -254,14 +255,14 @@ TEST(G1Mujoco, GenericSkeletonMatchesTheDescription) {
   }
   EXPECT_FALSE(s.has_xyz_layout());
   EXPECT_THROW(s.require_xyz_layout("test"), Error);
-  const auto m = mujoco_detail::load_model_from_file(std::string(MASKADAPT_SOURCE_DIR) + "/assets/g1.xml");
+  const auto m = mujoco_detail::load_model_from_file(maskadapt::build_paths::source_dir() + "/assets/g1.xml");
   maskadapt::testing::expect_same_hinges(s, m.get());
 }
 
 TEST(G1Mujoco, GenericForwardKinematicsMatchesG1FkAndMujoco) {
   // The generic Skeleton FK on the G1 (one hinge per link, arbitrary axes) against the G1's own
   // FK (same products, ~1e-15) and MuJoCo's xpos/xquat and body velocities on assets/g1.xml.
-  const auto m = mujoco_detail::load_model_from_file(std::string(MASKADAPT_SOURCE_DIR) + "/assets/g1.xml");
+  const auto m = mujoco_detail::load_model_from_file(maskadapt::build_paths::source_dir() + "/assets/g1.xml");
   mujoco_detail::DataPtr d(mj_makeData(m.get()));
   const Skeleton& s = g1_skeleton();
   Rng r(181);

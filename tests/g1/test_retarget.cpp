@@ -4,6 +4,8 @@
 #include <maskadapt/g1/retarget_quality.hpp>
 #include <maskadapt/humanoid/retarget.hpp>
 
+#include "../build_paths.hpp"
+
 #include <gtest/gtest.h>
 
 #include <cstdlib>
@@ -47,9 +49,7 @@ IkTargets rt_targets_of(const VectorXd& q, const Vec3& root, const Quat& rot) {
 std::string rt_motions_dir(const std::string& sub) {
   std::string base;
   if (const char* e = std::getenv("MASKADAPT_DATA_DIR"); e && *e) base = e;
-#ifdef MASKADAPT_DEFAULT_DATA_DIR
-  if (base.empty()) base = MASKADAPT_DEFAULT_DATA_DIR;
-#endif
+  if (base.empty()) base = maskadapt::build_paths::default_data_dir();
   const auto dir = std::filesystem::path(base) / "motions" / sub;
   return !base.empty() && std::filesystem::is_directory(dir) ? dir.string() : std::string();
 }

@@ -1,6 +1,8 @@
 #include <maskadapt/humanoid/description.hpp>
 #include <maskadapt/humanoid/mjcf.hpp>
 
+#include "../build_paths.hpp"
+
 #include <gtest/gtest.h>
 
 #include <fstream>
@@ -152,7 +154,7 @@ TEST(HumanoidMjcf, NumbersRoundTripExactly) {
 }
 
 TEST(HumanoidMjcf, CommittedAssetIsUpToDate) {
-  const std::string path = std::string(MASKADAPT_SOURCE_DIR) + "/assets/humanoid.xml";
+  const std::string path = maskadapt::build_paths::source_dir() + "/assets/humanoid.xml";
   std::ifstream in(path, std::ios::binary);
   ASSERT_TRUE(in) << "missing " << path << " (regenerate: maskadapt_humanoid_mjcf " << path << ")";
   std::stringstream ss;

@@ -3,6 +3,7 @@
 #include <maskadapt/humanoid/description.hpp>
 #include <maskadapt/sim/mujoco/humanoid_sim.hpp>
 
+#include "../build_paths.hpp"
 #include "../skeleton_vs_mujoco.hpp"
 
 #include <gtest/gtest.h>
@@ -85,7 +86,7 @@ TEST(MujocoKinematics, MassAndJointRangesMatchTheDescription) {
 }
 
 TEST(MujocoKinematics, CommittedAssetLoads) {
-  const std::string path = std::string(MASKADAPT_SOURCE_DIR) + "/assets/humanoid.xml";
+  const std::string path = maskadapt::build_paths::source_dir() + "/assets/humanoid.xml";
   auto m = mujoco_detail::load_model_from_file(path);
   EXPECT_EQ(m->nu, 63);
   EXPECT_EQ(m->nbody, 23);
@@ -106,7 +107,7 @@ TEST(MujocoKinematics, LoadErrorsBecomeLibraryErrors) {
 TEST(MujocoKinematics, GenericSkeletonMatchesTheCommittedAsset) {
   // The skeleton's hinges (x, y, z per body, DoF order) are the joints of assets/humanoid.xml,
   // and forward_kinematics over those hinge axes gives MuJoCo's xpos/xquat and body velocities.
-  const auto m = mujoco_detail::load_model_from_file(std::string(MASKADAPT_SOURCE_DIR) + "/assets/humanoid.xml");
+  const auto m = mujoco_detail::load_model_from_file(maskadapt::build_paths::source_dir() + "/assets/humanoid.xml");
   mujoco_detail::DataPtr d(mj_makeData(m.get()));
   const Skeleton& s = humanoid_skeleton();
   EXPECT_TRUE(s.has_xyz_layout());

@@ -10,6 +10,7 @@
 #include <fstream>
 #include <sstream>
 
+#include "../build_paths.hpp"
 #include "../fuzz/seeds.hpp"
 
 using namespace maskadapt;
@@ -18,7 +19,7 @@ namespace {
 /// Runs `parse` on every file of tests/fuzz/<sub>/regressions; returns how many there were.
 int replay_regressions(const std::string& sub, void (*parse)(const std::string&)) {
   int n = 0;
-  const auto dir = std::filesystem::path(MASKADAPT_FUZZ_DIR) / sub / "regressions";
+  const auto dir = std::filesystem::path(maskadapt::build_paths::source_dir() + "/tests/fuzz") / sub / "regressions";
   if (!std::filesystem::is_directory(dir)) return 0;
   for (const auto& e : std::filesystem::directory_iterator(dir)) {
     std::ifstream in(e.path(), std::ios::binary);

@@ -1,5 +1,7 @@
 #pragma once
 // Helpers shared by the motion tests: where the shared CMU clips are.
+#include "../build_paths.hpp"
+
 #include <cstdlib>
 #include <filesystem>
 #include <string>
@@ -10,9 +12,7 @@ namespace maskadapt::test {
 inline std::string cmu_dir() {
   std::string base;
   if (const char* e = std::getenv("MASKADAPT_DATA_DIR"); e && *e) base = e;
-#ifdef MASKADAPT_DEFAULT_DATA_DIR
-  if (base.empty()) base = MASKADAPT_DEFAULT_DATA_DIR;
-#endif
+  if (base.empty()) base = maskadapt::build_paths::default_data_dir();
   const auto dir = std::filesystem::path(base) / "motions" / "cmu";
   return std::filesystem::is_directory(dir) ? dir.string() : std::string();
 }
@@ -32,9 +32,7 @@ namespace maskadapt::test {
 inline std::string motions_dir(const std::string& sub) {
   std::string base;
   if (const char* e = std::getenv("MASKADAPT_DATA_DIR"); e && *e) base = e;
-#ifdef MASKADAPT_DEFAULT_DATA_DIR
-  if (base.empty()) base = MASKADAPT_DEFAULT_DATA_DIR;
-#endif
+  if (base.empty()) base = maskadapt::build_paths::default_data_dir();
   const auto dir = std::filesystem::path(base) / "motions" / sub;
   return !base.empty() && std::filesystem::is_directory(dir) ? dir.string() : std::string();
 }

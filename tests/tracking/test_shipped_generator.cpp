@@ -11,6 +11,8 @@
 #include <maskadapt/tracking/arm_eval.hpp>
 #include <maskadapt/tracking/builtin_generator.hpp>
 
+#include "../build_paths.hpp"
+
 #include <gtest/gtest.h>
 
 #include <cstdlib>
@@ -21,11 +23,11 @@ using namespace maskadapt::tracking;
 
 namespace {
 
-const std::string kPath = MASKADAPT_SOURCE_DIR "/models/text_generator.bin";
+const std::string kPath = maskadapt::build_paths::source_dir() + "/models/text_generator.bin";
 
 std::string data_dir() {
   const char* env = std::getenv("MASKADAPT_DATA_DIR");
-  return env && *env ? env : MASKADAPT_DEFAULT_DATA_DIR;
+  return env && *env ? std::string(env) : maskadapt::build_paths::default_data_dir();
 }
 
 }  // namespace

@@ -1,6 +1,8 @@
 #include <maskadapt/humanoid/description.hpp>
 #include <maskadapt/tracking/text_pool.hpp>
 
+#include "../build_paths.hpp"
+
 #include <gtest/gtest.h>
 
 #include <cstdlib>
@@ -37,7 +39,7 @@ TEST(TextPool, PoolFromLabelledClips) {
 
 TEST(TextPool, SharedCmuClipsGiveAnArmsPool) {
   const char* env = std::getenv("MASKADAPT_DATA_DIR");
-  const std::string dir = std::string(env ? env : MASKADAPT_DEFAULT_DATA_DIR) + "/motions/cmu";
+  const std::string dir = (env ? std::string(env) : maskadapt::build_paths::default_data_dir()) + "/motions/cmu";
   if (!std::filesystem::is_directory(dir)) GTEST_SKIP() << "no CMU clips under " << dir;
   std::vector<std::string> skipped;
   const auto clips = load_labelled_clips(dir, humanoid_skeleton(), &skipped);

@@ -1,5 +1,7 @@
 #include <maskadapt/train/config.hpp>
 
+#include "../build_paths.hpp"
+
 #include <gtest/gtest.h>
 
 #include <cstdio>
@@ -184,7 +186,7 @@ TEST(TrainConfig, SyntaxErrorsGiveTheLine) {
 }
 
 TEST(TrainConfig, ShippedConfigsParse) {
-  const std::filesystem::path dir = std::filesystem::path(MASKADAPT_SOURCE_DIR) / "configs";
+  const std::filesystem::path dir = std::filesystem::path(maskadapt::build_paths::source_dir()) / "configs";
   int n = 0;
   for (const auto& e : std::filesystem::directory_iterator(dir)) {
     if (e.path().extension() != ".json") continue;

@@ -10,6 +10,8 @@
 #include <maskadapt/train/residual_export.hpp>
 #include <maskadapt/train/stage2_policy.hpp>
 
+#include "../build_paths.hpp"
+
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -21,7 +23,7 @@ using namespace maskadapt;
 using namespace maskadapt::train;
 
 TEST(ShippedModels, AmpWalkBandaiLoadsWithItsDimsAndProvenance) {
-  const std::string path = MASKADAPT_SOURCE_DIR "/models/amp_walk_bandai.bin";
+  const std::string path = maskadapt::build_paths::source_dir() + "/models/amp_walk_bandai.bin";
   const Checkpoint c = load_checkpoint(path);
   ASSERT_TRUE(is_policy_export(c));
   const ModelDims d = check_policy_export(c, ModelDims{kObservationDim, policy_input_dim(kObservationDim), 63}, path);
@@ -52,7 +54,7 @@ TEST(ShippedModels, AmpWalkBandaiLoadsWithItsDimsAndProvenance) {
 // masking and the MI loss (target_ema), its actor hides masked parts at their mean, and its
 // provenance records the AMP phase and the masked continuation.
 TEST(ShippedModels, MaskMiWalkBandaiLoadsWithItsDimsAndProvenance) {
-  const std::string path = MASKADAPT_SOURCE_DIR "/models/mask_mi_walk_bandai.bin";
+  const std::string path = maskadapt::build_paths::source_dir() + "/models/mask_mi_walk_bandai.bin";
   const Checkpoint c = load_checkpoint(path);
   ASSERT_TRUE(is_policy_export(c));
   check_policy_export(c, ModelDims{kObservationDim, policy_input_dim(kObservationDim), 63}, path);
@@ -101,7 +103,7 @@ TEST(ShippedModels, Table1BasesLoadAsTheVariantsTheyClaimToBe) {
                             Expected{"amp_s2.bin", 0.0, 0.0, "Table 1 AMP base, seed 2", 2},
                             Expected{"mask_no_mi_s2.bin", 0.8, 0.0, "Table 1 masking without MI, seed 2", 2},
                             Expected{"mask_mi1_s1.bin", 0.8, 1.0, "Table 1 masking with MI, lambda 1", 1}}) {
-    const std::string path = std::string(MASKADAPT_SOURCE_DIR "/models/table1/") + e.file;
+    const std::string path = maskadapt::build_paths::source_dir() + "/models/table1/" + e.file;
     const Checkpoint c = load_checkpoint(path);
     ASSERT_TRUE(is_policy_export(c)) << path;
     EXPECT_EQ(c.get_int("trainer/iteration"), 8100) << path;
@@ -137,12 +139,12 @@ TEST(ShippedModels, Table2PoliciesAreTheCellsTheyClaimToBe) {
     double blend_resets = 0.0;
   };
   const Skeleton& skel = humanoid_skeleton();
-  const Checkpoint base = load_checkpoint(MASKADAPT_SOURCE_DIR "/models/table1/mask_mi03_s1.bin");
+  const Checkpoint base = load_checkpoint(maskadapt::build_paths::source_dir() + "/models/table1/mask_mi03_s1.bin");
   for (const Case& k : {Case{"kick", "kick.bvh", "lower_body", 0.0, 2}, Case{"kick_cut", "kick_cut.npz", "lower_body", 0.0, 3, 0.5},
                         Case{"swim", "swim", "arms", 0.15, 8}, Case{"sneak", "SNEAKY", "lower_body", 0.0, 2}})
     for (const char* method : {"ours", "cml"})
       for (int seed = 1; seed <= k.seeds; ++seed) {
-        const std::string path = std::string(MASKADAPT_SOURCE_DIR "/models/table2/") + k.file + "_" + method + "_s" +
+        const std::string path = maskadapt::build_paths::source_dir() + "/models/table2/" + k.file + "_" + method + "_s" +
                                  std::to_string(seed) + ".bin";
         const Checkpoint c = load_checkpoint(path);
         const ResidualTrainConfig cfg = check_residual_export(c, path);
@@ -174,10 +176,10 @@ TEST(ShippedModels, Table2PoliciesAreTheCellsTheyClaimToBe) {
 // shipped walking base's actor — and builds on the reference humanoid with finite mean actions.
 TEST(ShippedModels, Table3PoliciesAreTheCellsTheyClaimToBeOnTheShippedBase) {
   const Skeleton& skel = humanoid_skeleton();
-  const Checkpoint walker = load_checkpoint(MASKADAPT_SOURCE_DIR "/models/mask_mi_walk_bandai.bin");
+  const Checkpoint walker = load_checkpoint(maskadapt::build_paths::source_dir() + "/models/mask_mi_walk_bandai.bin");
   for (const char* task : {"location", "heading", "strike"})
     for (const char* method : {"ours", "cml", "adaptnet"}) {
-      const std::string path = std::string(MASKADAPT_SOURCE_DIR "/models/table3/") + task + "_" + method + ".bin";
+      const std::string path = maskadapt::build_paths::source_dir() + "/models/table3/" + task + "_" + method + ".bin";
       const Checkpoint c = load_checkpoint(path);
       ASSERT_TRUE(is_residual_export(c)) << path;
       const ResidualTrainConfig cfg = check_residual_export(c, path);
@@ -208,10 +210,10 @@ TEST(ShippedModels, Table3PoliciesAreTheCellsTheyClaimToBeOnTheShippedBase) {
 // 2), from scratch without a base (seed 1) — each the stage-2 export of the cell it is named after.
 TEST(ShippedModels, Table4TrackingPoliciesAreTheCellsTheyClaimToBe) {
   const Skeleton& skel = humanoid_skeleton();
-  const Checkpoint walker = load_checkpoint(MASKADAPT_SOURCE_DIR "/models/mask_mi_walk_bandai.bin");
+  const Checkpoint walker = load_checkpoint(maskadapt::build_paths::source_dir() + "/models/mask_mi_walk_bandai.bin");
   const std::vector<std::pair<std::string, int>> cells = {{"ours", 1}, {"ours", 2}, {"cml", 1}, {"cml", 2}, {"scratch", 1}};
   for (const auto& [method, seed] : cells) {
-    const std::string path = std::string(MASKADAPT_SOURCE_DIR "/models/table4/tracking_") + method + "_s" +
+    const std::string path = maskadapt::build_paths::source_dir() + "/models/table4/tracking_" + method + "_s" +
                              std::to_string(seed) + ".bin";
     const Checkpoint c = load_checkpoint(path);
     ASSERT_TRUE(is_residual_export(c)) << path;

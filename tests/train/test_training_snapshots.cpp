@@ -4,6 +4,7 @@
 // resume with today's code on its character in MuJoCo (the humanoid, or the G1-like robot for a
 // run with env.character "g1"): one iteration runs, moves the policy and refills the replay
 // buffer. Needs the motions the run trained on (skips without them).
+#include "../build_paths.hpp"
 #include "../motion/test_util.hpp"
 
 #include <maskadapt/sim/mujoco/humanoid_sim.hpp>
@@ -24,7 +25,7 @@ namespace {
 
 std::vector<std::string> committed_snapshots() {
   std::vector<std::string> out;
-  const std::filesystem::path dir = MASKADAPT_SOURCE_DIR "/models/training";
+  const std::filesystem::path dir = maskadapt::build_paths::source_dir() + "/models/training";
   if (std::filesystem::is_directory(dir))
     for (const auto& e : std::filesystem::directory_iterator(dir))
       if (e.path().extension() == ".ckpt") out.push_back(e.path().string());
