@@ -1,4 +1,4 @@
-#include <maskadapt/adapt/mi_loss.hpp>
+#include <maskadapt/rl/mi_loss.hpp>
 #include <maskadapt/nn/adam.hpp>
 
 #include <gtest/gtest.h>
@@ -23,8 +23,8 @@ struct MiProblem {
     obs = MatrixXd::NullaryExpr(obs_dim, batch, [&] { return rng.normal(); });
     for (Index j = 0; j < batch; ++j) masks.push_back(PartMask{static_cast<std::uint8_t>(rng.uniform_int(32))});
     masks[0] = PartMask::none();
-    adapt::unmasked_policy_input<double>(obs, obs_dim + kNumParts, full);
-    adapt::masked_policy_input<double>(obs, parts, masks, masked);
+    rl::unmasked_policy_input<double>(obs, obs_dim + kNumParts, full);
+    rl::masked_policy_input<double>(obs, parts, masks, masked);
   }
   rl::ActorCriticConfig config(bool learn_log_std) const {
     rl::ActorCriticConfig c;
@@ -68,9 +68,9 @@ TEST(MiLoss, GradientMatchesFiniteDifferences) {
     rl::GaussianActor<double> actor(p.config(learn), rng);
     actor.normalizer.update(p.masked);  // a non-trivial input normalisation
     const double lambda = 0.7;
-    adapt::MiWorkspace<double> w;
+    rl::MiWorkspace<double> w;
     actor.zero_grad();
-    const auto r = adapt::mi_loss(actor, p.full, p.masked, lambda, w, adapt::MiGradient::TargetStopped);
+    const auto r = rl::mi_loss(actor, p.full, p.masked, lambda, w, rl::MiGradient::TargetStopped);
     EXPECT_GT(r.kl, 0.0);
     EXPECT_DOUBLE_EQ(r.loss, lambda * r.kl);
     const VectorXd grad = actor.mean_net.grads();
@@ -116,7 +116,7 @@ TEST(MiLoss, GradientMatchesFiniteDifferences) {
 // mi_loss's gradient (two separate passes), in both gradient modes; the KL is the same, and the
 // null-mask column (column 0) is not run through the full pass at all.
 TEST(MiLoss, SharingTheMaskedPassGivesTheSameGradientAsSeparatePasses) {
-  for (const auto mode : {adapt::MiGradient::Both, adapt::MiGradient::TargetStopped}) {
+  for (const auto mode : {rl::MiGradient::Both, rl::MiGradient::TargetStopped}) {
     for (bool learn : {false, true}) {
       Rng rng(21);
       MiProblem p(rng);
@@ -125,25 +125,25 @@ TEST(MiLoss, SharingTheMaskedPassGivesTheSameGradientAsSeparatePasses) {
       const MatrixXd g_other = MatrixXd::NullaryExpr(p.action_dim, p.batch, [&] { return rng.normal(); });
       const double lambda = 0.9;
       // separate: backward of the other term, then the whole mi_loss
-      adapt::MiWorkspace<double> w1;
+      rl::MiWorkspace<double> w1;
       nn::TrainCache<double> c1;
       MatrixXd nm;
       actor.zero_grad();
       actor.normalize(p.masked, nm);
       actor.mean_net.forward_train(nm, c1);
       actor.mean_net.backward(c1, g_other, actor.mean_net.grads());
-      const double kl1 = adapt::mi_loss(actor, p.full, p.masked, lambda, w1, mode).kl;
+      const double kl1 = rl::mi_loss(actor, p.full, p.masked, lambda, w1, mode).kl;
       const VectorXd g1 = actor.mean_net.grads(), ls1 = actor.log_std.grads();
       // shared: one masked pass, MI's ∂/∂μ added to the other term's, one backward
-      adapt::MiWorkspace<double> w2;
+      rl::MiWorkspace<double> w2;
       nn::TrainCache<double> c2;
       actor.zero_grad();
       const MatrixXd& mu = actor.mean_net.forward_train(nm, c2);
       MatrixXd dmu = g_other;
-      const double kl2 = adapt::mi_loss_on_masked_pass<double>(actor, p.full, p.masked, mu, lambda, w2, mode, dmu).kl;
+      const double kl2 = rl::mi_loss_on_masked_pass<double>(actor, p.full, p.masked, mu, lambda, w2, mode, dmu).kl;
       actor.mean_net.backward(c2, dmu, actor.mean_net.grads());
       EXPECT_NEAR(kl1, kl2, 1e-12);
-      EXPECT_LT((actor.mean_net.grads() - g1).cwiseAbs().maxCoeff(), 1e-12) << adapt::to_string(mode) << " " << learn;
+      EXPECT_LT((actor.mean_net.grads() - g1).cwiseAbs().maxCoeff(), 1e-12) << rl::to_string(mode) << " " << learn;
       EXPECT_LT((actor.log_std.grads() - ls1).cwiseAbs().maxCoeff(), 1e-12);
       std::vector<Index> masked_columns;  // column 0 (and any other drawn as 0) has the null mask
       for (Index j = 0; j < p.batch; ++j)
@@ -158,15 +158,15 @@ TEST(MiLoss, LambdaZeroAddsNothingButReportsKl) {
   Rng rng(2);
   MiProblem p(rng);
   rl::GaussianActor<double> actor(p.config(true), rng);
-  adapt::MiWorkspace<double> w;
+  rl::MiWorkspace<double> w;
   actor.zero_grad();
-  const auto r = adapt::mi_loss(actor, p.full, p.masked, 0.0, w);
+  const auto r = rl::mi_loss(actor, p.full, p.masked, 0.0, w);
   EXPECT_GT(r.kl, 0.0);
   EXPECT_EQ(r.loss, 0.0);
   EXPECT_EQ(actor.mean_net.grads().squaredNorm(), 0.0);
   EXPECT_EQ(actor.log_std.grads().squaredNorm(), 0.0);
-  EXPECT_THROW(adapt::mi_loss(actor, p.full, p.masked, -1.0, w), Error);
-  EXPECT_THROW(adapt::mi_loss<double>(actor, p.full, p.masked.topRows(3), 1.0, w), Error);
+  EXPECT_THROW(rl::mi_loss(actor, p.full, p.masked, -1.0, w), Error);
+  EXPECT_THROW(rl::mi_loss<double>(actor, p.full, p.masked.topRows(3), 1.0, w), Error);
 }
 
 // The MI term makes the masked policy agree with the unmasked one *during training*. The full
@@ -182,15 +182,15 @@ TEST(MiLoss, KlFallsDuringTrainingWithLambda) {
   std::vector<PartMask> masks;
   for (Index j = 0; j < B; ++j) masks.push_back(PartMask{static_cast<std::uint8_t>(rng.uniform_int(32))});
   MatrixXd full, masked;
-  adapt::unmasked_policy_input<double>(obs, p.obs_dim + kNumParts, full);
-  adapt::masked_policy_input<double>(obs, p.parts, masks, masked);
+  rl::unmasked_policy_input<double>(obs, p.obs_dim + kNumParts, full);
+  rl::masked_policy_input<double>(obs, p.parts, masks, masked);
   const MatrixXd A = MatrixXd::NullaryExpr(p.action_dim, p.obs_dim, [&] { return 0.3 * rng.normal(); });
   const MatrixXd target = (A * obs).array().tanh().matrix();
   auto cfg = p.config(false);
   cfg.actor_hidden = {32, 32};
   rl::GaussianActor<double> actor(cfg, rng);
   nn::Adam<double> opt({.lr = 1e-3});
-  adapt::MiWorkspace<double> w;
+  rl::MiWorkspace<double> w;
   nn::TrainCache<double> cache;
   auto train = [&](rl::GaussianActor<double>& a, nn::Adam<double>& o, double lambda, int iters) {
     double kl = 0;
@@ -199,7 +199,7 @@ TEST(MiLoss, KlFallsDuringTrainingWithLambda) {
       const MatrixXd& mu = a.mean_net.forward_train(full, cache);  // no input normalisation (count 0)
       const MatrixXd dmu = (mu - target) * (2.0 / static_cast<double>(mu.size()));
       a.mean_net.backward(cache, dmu, a.mean_net.grads());
-      kl = adapt::mi_loss(a, full, masked, lambda, w).kl;
+      kl = rl::mi_loss(a, full, masked, lambda, w).kl;
       EXPECT_TRUE(o.step(a.mean_net.block()).applied);
     }
     return kl;
@@ -225,9 +225,9 @@ TEST(MiLoss, ExactGradientThroughBothSidesMatchesFiniteDifferences) {
     rl::GaussianActor<double> actor(p.config(learn), rng);
     actor.normalizer.update(p.masked);
     const double lambda = 0.7;
-    adapt::MiWorkspace<double> w;
+    rl::MiWorkspace<double> w;
     actor.zero_grad();
-    adapt::mi_loss(actor, p.full, p.masked, lambda, w);  // default: MiGradient::Both
+    rl::mi_loss(actor, p.full, p.masked, lambda, w);  // default: MiGradient::Both
     const VectorXd grad = actor.mean_net.grads();
     const VectorXd grad_ls = actor.log_std.grads();
     auto loss_at = [&](const rl::GaussianActor<double>& a) {
@@ -262,14 +262,14 @@ TEST(MiLoss, ExactGradientThroughBothSidesMatchesFiniteDifferences) {
 }
 
 TEST(MiLoss, GradientModeNames) {
-  EXPECT_EQ(adapt::mi_gradient_from_string("both"), adapt::MiGradient::Both);
-  EXPECT_EQ(adapt::mi_gradient_from_string("target_stopped"), adapt::MiGradient::TargetStopped);
-  EXPECT_STREQ(adapt::to_string(adapt::MiGradient::TargetStopped), "target_stopped");
-  EXPECT_EQ(adapt::mi_gradient_from_string("target_ema"), adapt::MiGradient::TargetEma);
-  EXPECT_STREQ(adapt::to_string(adapt::MiGradient::TargetEma), "target_ema");
-  EXPECT_TRUE(adapt::has_fixed_target(adapt::MiGradient::TargetEma));
-  EXPECT_FALSE(adapt::has_fixed_target(adapt::MiGradient::Both));
-  EXPECT_THROW(adapt::mi_gradient_from_string("half"), Error);
+  EXPECT_EQ(rl::mi_gradient_from_string("both"), rl::MiGradient::Both);
+  EXPECT_EQ(rl::mi_gradient_from_string("target_stopped"), rl::MiGradient::TargetStopped);
+  EXPECT_STREQ(rl::to_string(rl::MiGradient::TargetStopped), "target_stopped");
+  EXPECT_EQ(rl::mi_gradient_from_string("target_ema"), rl::MiGradient::TargetEma);
+  EXPECT_STREQ(rl::to_string(rl::MiGradient::TargetEma), "target_ema");
+  EXPECT_TRUE(rl::has_fixed_target(rl::MiGradient::TargetEma));
+  EXPECT_FALSE(rl::has_fixed_target(rl::MiGradient::Both));
+  EXPECT_THROW(rl::mi_gradient_from_string("half"), Error);
 }
 
 // A target computed before the update (TargetFrozen: the pre-update policy; TargetEma: the
@@ -278,8 +278,8 @@ TEST(MiLoss, GradientModeNames) {
 // null-mask ones getting exactly 0; MiColumns::All: every column, so a null-mask column (whose
 // "masked" pass is the unmasked policy) is anchored to the target. Nothing flows into the network.
 TEST(MiLoss, FixedTargetGivesTheClosedFormOnTheColumnsItCovers) {
-  for (const auto columns : {adapt::MiColumns::Masked, adapt::MiColumns::All}) {
-    const bool all = columns == adapt::MiColumns::All;
+  for (const auto columns : {rl::MiColumns::Masked, rl::MiColumns::All}) {
+    const bool all = columns == rl::MiColumns::All;
     Rng rng(5);
     MiProblem p(rng);
     ASSERT_TRUE(p.masks[0].empty());
@@ -288,10 +288,10 @@ TEST(MiLoss, FixedTargetGivesTheClosedFormOnTheColumnsItCovers) {
     const MatrixXd target = MatrixXd::NullaryExpr(d, B, [&] { return rng.normal(); });
     const MatrixXd mu_masked = MatrixXd::NullaryExpr(d, B, [&] { return rng.normal(); });
     const double lambda = 0.7, inv_var = std::exp(-2 * actor.log_std.params()[0]);
-    adapt::MiWorkspace<double> w;
+    rl::MiWorkspace<double> w;
     MatrixXd dmu = MatrixXd::Zero(d, B);
     actor.zero_grad();
-    const auto r = adapt::mi_loss_on_fixed_target<double>(actor, target, p.masked, mu_masked, lambda, w, dmu, columns);
+    const auto r = rl::mi_loss_on_fixed_target<double>(actor, target, p.masked, mu_masked, lambda, w, dmu, columns);
     double kl = 0;
     for (Index j = 0; j < B; ++j) {
       const VectorXd diff = mu_masked.col(j) - target.col(j);
@@ -306,7 +306,7 @@ TEST(MiLoss, FixedTargetGivesTheClosedFormOnTheColumnsItCovers) {
     EXPECT_NEAR(r.kl, kl / static_cast<double>(B), 1e-12);
     EXPECT_NEAR(r.loss, lambda * r.kl, 1e-12);
     EXPECT_EQ(actor.mean_net.grads().squaredNorm(), 0.0);
-    EXPECT_THROW(adapt::mi_loss_on_fixed_target<double>(actor, target.leftCols(3), p.masked, mu_masked, lambda, w, dmu, columns),
+    EXPECT_THROW(rl::mi_loss_on_fixed_target<double>(actor, target.leftCols(3), p.masked, mu_masked, lambda, w, dmu, columns),
                  Error);
   }
 }
@@ -316,14 +316,14 @@ TEST(MiLoss, EmaTargetStepIsTheConvexCombination) {
   nn::Mlp<double> policy(nn::MlpSpec{4, {5}, 3, nn::Activation::Tanh}, rng);
   nn::Mlp<double> target(nn::MlpSpec{4, {5}, 3, nn::Activation::Tanh}, rng);
   const VectorXd before = target.params();
-  adapt::update_ema_target(target, policy, 0.25);
+  rl::update_ema_target(target, policy, 0.25);
   EXPECT_LT((target.params() - (0.75 * before + 0.25 * policy.params())).cwiseAbs().maxCoeff(), 1e-15);
-  adapt::update_ema_target(target, policy, 1.0);
+  rl::update_ema_target(target, policy, 1.0);
   EXPECT_EQ(target.params(), policy.params());
-  EXPECT_THROW(adapt::update_ema_target(target, policy, 0.0), Error);
-  EXPECT_THROW(adapt::update_ema_target(target, policy, 1.5), Error);
+  EXPECT_THROW(rl::update_ema_target(target, policy, 0.0), Error);
+  EXPECT_THROW(rl::update_ema_target(target, policy, 1.5), Error);
   nn::Mlp<double> other(nn::MlpSpec{4, {6}, 3, nn::Activation::Tanh}, rng);
-  EXPECT_THROW(adapt::update_ema_target(other, policy, 0.5), Error);
+  EXPECT_THROW(rl::update_ema_target(other, policy, 0.5), Error);
 }
 
 // The three target modes on one fixed batch, minimising the MI loss alone (σ e^−2.9 as in the
@@ -338,7 +338,7 @@ TEST(MiLoss, OnAFixedBatchTheStoppedTargetDivergesTheExactGradientConvergesTheEm
   struct Outcome {
     double kl0, kl1, drift;  // masked/unmasked KL before and after; largest move of the unmasked mean
   };
-  auto run = [](adapt::MiGradient mode) {
+  auto run = [](rl::MiGradient mode) {
     Rng rng(8);
     MiProblem p(rng);
     auto cfg = p.config(false);
@@ -360,30 +360,30 @@ TEST(MiLoss, OnAFixedBatchTheStoppedTargetDivergesTheExactGradientConvergesTheEm
     const MatrixXd mu_start = unmasked_mu(actor);
     const double kl0 = masked_unmasked_kl(actor);
     nn::Adam<double> opt({.lr = 1e-4});
-    adapt::MiWorkspace<double> w;
+    rl::MiWorkspace<double> w;
     nn::TrainCache<double> cache;
     nn::Mlp<double> target = actor.mean_net;
     for (int step = 0; step < 200; ++step) {
       actor.zero_grad();
-      if (mode == adapt::MiGradient::TargetEma) {
+      if (mode == rl::MiGradient::TargetEma) {
         MatrixXd nf, nm;
         actor.normalize(p.full, nf);
         const MatrixXd mu_target = target.forward(nf);
         actor.normalize(p.masked, nm);
         const MatrixXd& mu = actor.mean_net.forward_train(nm, cache);
         MatrixXd dmu = MatrixXd::Zero(mu.rows(), mu.cols());
-        adapt::mi_loss_on_fixed_target<double>(actor, mu_target, p.masked, mu, 1.0, w, dmu, adapt::MiColumns::All);
+        rl::mi_loss_on_fixed_target<double>(actor, mu_target, p.masked, mu, 1.0, w, dmu, rl::MiColumns::All);
         actor.mean_net.backward(cache, dmu, actor.mean_net.grads());
       } else {
-        adapt::mi_loss(actor, p.full, p.masked, 1.0, w, mode);
+        rl::mi_loss(actor, p.full, p.masked, 1.0, w, mode);
       }
       opt.step(actor.mean_net.block());
-      if (mode == adapt::MiGradient::TargetEma) adapt::update_ema_target(target, actor.mean_net, 0.05);
+      if (mode == rl::MiGradient::TargetEma) rl::update_ema_target(target, actor.mean_net, 0.05);
     }
     return Outcome{kl0, masked_unmasked_kl(actor), (unmasked_mu(actor) - mu_start).cwiseAbs().maxCoeff()};
   };
-  const Outcome stopped = run(adapt::MiGradient::TargetStopped), both = run(adapt::MiGradient::Both),
-                ema = run(adapt::MiGradient::TargetEma);
+  const Outcome stopped = run(rl::MiGradient::TargetStopped), both = run(rl::MiGradient::Both),
+                ema = run(rl::MiGradient::TargetEma);
   std::printf("MI alone, 200 Adam steps (KL before -> after, largest move of the unmasked mean):\n"
               "  target_stopped %.3f -> %.3f, %.3f\n  both           %.3f -> %.3f, %.3f\n"
               "  target_ema     %.3f -> %.3f, %.3f\n",

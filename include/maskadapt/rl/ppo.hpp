@@ -13,13 +13,13 @@
 /// gradient is NaN/inf the whole step is skipped (neither network changes, optimiser state and
 /// step counters stay), it is counted in PpoStats::skipped_steps, and training goes on with the
 /// next minibatch from the last good parameters.
-#include <maskadapt/adapt/mi_loss.hpp>
 #include <maskadapt/core/error.hpp>
 #include <maskadapt/core/rng.hpp>
 #include <maskadapt/core/types.hpp>
 #include <maskadapt/nn/adam.hpp>
 #include <maskadapt/nn/gaussian.hpp>
 #include <maskadapt/rl/actor_critic.hpp>
+#include <maskadapt/rl/mi_loss.hpp>
 #include <maskadapt/rl/ppo_loss.hpp>
 #include <maskadapt/rl/rollout_buffer.hpp>
 
@@ -76,7 +76,7 @@ struct PpoStats {
 };
 
 /// Builds the full-observation policy input (policy_input_dim × B) from observations s
-/// (obs_dim × B). Default: [s ; 0] (null mask bits), see adapt::unmasked_policy_input.
+/// (obs_dim × B). Default: [s ; 0] (null mask bits), see unmasked_policy_input (rl/mi_loss.hpp).
 template <class T>
 using FullInputFn = std::function<void(const MatrixX<T>& obs, MatrixX<T>& full_input)>;
 
@@ -120,7 +120,7 @@ class Ppo {
     const bool mi = config_.compute_mi;
     if (mi && !full_input_fn_) {
       const Index pid = ac.actor.input_dim();
-      full_input_fn_ = [pid](const MatrixX<T>& obs, MatrixX<T>& out) { adapt::unmasked_policy_input<T>(obs, pid, out); };
+      full_input_fn_ = [pid](const MatrixX<T>& obs, MatrixX<T>& out) { unmasked_policy_input<T>(obs, pid, out); };
     }
 
     PpoStats st;
@@ -177,7 +177,7 @@ class Ppo {
       actor.normalize(full_, full_n_);
       mu_full_.resize(d, B);
       actor.mean_net.forward(full_n_, mu_full_, ws_);
-      mi_kl = adapt::mi_loss_on_means<T>(mu_full_, mu, ls, config_.lambda_mi, dmu_, &dls_).kl;
+      mi_kl = mi_loss_on_means<T>(mu_full_, mu, ls, config_.lambda_mi, dmu_, &dls_).kl;
     }
     actor.mean_net.backward(actor_cache_, dmu_, actor.mean_net.grads());
     if (actor.learn_log_std) actor.log_std.grads() += dls_.col(0);

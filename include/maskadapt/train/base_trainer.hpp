@@ -12,7 +12,7 @@
 ///  4. PPO epochs over minibatches: clipped surrogate + critic_weight·value loss + λ_MI·L_MI,
 ///     L_MI = KL(π(·|s, m⁰) ‖ π(·|s̄, m)); mask.mi_gradient says what the target is (the current
 ///     policy, with or without its gradient; the pre-update policy; or a moving-average copy,
-///     updated after the epochs — adapt/mi_loss.hpp);
+///     updated after the epochs — rl/mi_loss.hpp);
 ///  5. discriminator steps: motion-library windows (real) vs fresh + replayed agent windows.
 /// Every optimiser step is checked (nn::Adam): a non-finite gradient skips the step, keeps the
 /// last good parameters, and is counted in `skipped_updates`.
@@ -36,7 +36,7 @@
 /// checkpoint holds every rank's envs in the layout of one process with K·n envs, plus
 /// `dist/ranks` = K; `load` refuses a checkpoint of another K.
 /// With the default SingleProcess nothing of this runs and the trainer is what it always was.
-#include <maskadapt/adapt/mi_loss.hpp>
+#include <maskadapt/rl/mi_loss.hpp>
 #include <maskadapt/core/checkpoint.hpp>
 #include <maskadapt/core/collective.hpp>
 #include <maskadapt/core/error.hpp>
@@ -120,7 +120,7 @@ class BaseTrainer {
               ThreadPool* pool = nullptr, std::optional<FallCriteria> fall = std::nullopt, Collective* comm = nullptr)
       : cfg_((config.validate(), std::move(config))),
         task_(sim, std::move(reset), task_config(cfg_, std::move(fall)), cfg_.run.seed, pool),
-        mi_gradient_(adapt::mi_gradient_from_string(cfg_.mask.mi_gradient, "mask.mi_gradient")),
+        mi_gradient_(rl::mi_gradient_from_string(cfg_.mask.mi_gradient, "mask.mi_gradient")),
         real_(std::move(real)),
         rng_(Rng::stream(cfg_.run.seed, 0xB45E0000ULL)) {
     require(static_cast<bool>(real_), "no real window sampler given", {{}, {}, "real_sampler"});
@@ -207,7 +207,7 @@ class BaseTrainer {
     if (policy_.ac.actor.hidden_groups.empty()) {
       update_normalizers(buf_.policy_input);
     } else {  // mask.hidden_value = mean: the actor's statistics from the unmasked inputs [s ; 0]
-      adapt::unmasked_policy_input<float>(buf_.obs, task_.policy_input_dim(), unmasked_inputs_);
+      rl::unmasked_policy_input<float>(buf_.obs, task_.policy_input_dim(), unmasked_inputs_);
       update_normalizers(unmasked_inputs_);
     }
     st.time_update += upd.seconds();
@@ -382,10 +382,10 @@ class BaseTrainer {
     // No target while no episode is masked (the warm-up): the warm-up stays bit-identical to plain
     // AMP in every gradient mode, and the EMA target starts from the policy where masking starts.
     const bool fixed_target =
-        cfg_.mask.enabled && task_.config().mask_prob > 0 && adapt::has_fixed_target(mi_gradient_);
-    const bool ema_target = fixed_target && mi_gradient_ == adapt::MiGradient::TargetEma;
+        cfg_.mask.enabled && task_.config().mask_prob > 0 && rl::has_fixed_target(mi_gradient_);
+    const bool ema_target = fixed_target && mi_gradient_ == rl::MiGradient::TargetEma;
     if (fixed_target) {  // μ(s, m⁰) of the target policy for every sample, computed before the update
-      adapt::unmasked_policy_input<float>(buf_.obs, task_.policy_input_dim(), unmasked_inputs_);
+      rl::unmasked_policy_input<float>(buf_.obs, task_.policy_input_dim(), unmasked_inputs_);
       frozen_mu_.resize(actor.action_dim(), buf_.size());
       if (ema_target) {
         if (mi_target_net_.num_params() == 0) mi_target_net_ = actor.mean_net;  // starts at the policy
@@ -433,7 +433,7 @@ class BaseTrainer {
     means.write(st);
     st.entropy = nn::gaussian_entropy_of_column<float>(actor.log_std_col());
     st.actor_lr = actor_opt_.config().lr;
-    if (ema_target) adapt::update_ema_target(mi_target_net_, actor.mean_net, cfg_.mask.mi_target_tau);
+    if (ema_target) rl::update_ema_target(mi_target_net_, actor.mean_net, cfg_.mask.mi_target_tau);
   }
 
   /// Per-minibatch means (over this rank's samples until sum_minibatch_over_ranks, then over all ranks').
@@ -487,12 +487,12 @@ class BaseTrainer {
     const double lambda_mi = scaled ? cfg_.mask.lambda_mi * share : cfg_.mask.lambda_mi;
     if (fixed_target) {
       rl::gather_columns(frozen_mu_, idx, mu_target);
-      mi_kl = adapt::mi_loss_on_fixed_target<float>(actor, mu_target, pin, mu, lambda_mi, mi_ws_, dmu,
-                                                    ema_target ? adapt::MiColumns::All : adapt::MiColumns::Masked)
+      mi_kl = rl::mi_loss_on_fixed_target<float>(actor, mu_target, pin, mu, lambda_mi, mi_ws_, dmu,
+                                                 ema_target ? rl::MiColumns::All : rl::MiColumns::Masked)
                   .kl;
-    } else if (cfg_.mask.enabled && !adapt::has_fixed_target(mi_gradient_)) {
-      adapt::unmasked_policy_input<float>(obs, task_.policy_input_dim(), full);
-      mi_kl = adapt::mi_loss_on_masked_pass<float>(actor, full, pin, mu, lambda_mi, mi_ws_, mi_gradient_, dmu)
+    } else if (cfg_.mask.enabled && !rl::has_fixed_target(mi_gradient_)) {
+      rl::unmasked_policy_input<float>(obs, task_.policy_input_dim(), full);
+      mi_kl = rl::mi_loss_on_masked_pass<float>(actor, full, pin, mu, lambda_mi, mi_ws_, mi_gradient_, dmu)
                   .kl;
     }
     actor.mean_net.backward(actor_cache_, dmu, actor.mean_net.grads());
@@ -621,7 +621,7 @@ class BaseTrainer {
 
   BaseTrainConfig cfg_;
   tasks::ImitationTask<Sim> task_;
-  adapt::MiGradient mi_gradient_;
+  rl::MiGradient mi_gradient_;
   RealWindowSampler real_;
   Rng rng_;
   BasePolicy policy_;
@@ -637,7 +637,7 @@ class BaseTrainer {
   // workspaces (collection path allocates nothing once sized)
   nn::InferenceWorkspace<float> actor_ws_, critic_ws_;
   nn::TrainCache<float> actor_cache_, critic_cache_;
-  adapt::MiWorkspace<float> mi_ws_;
+  rl::MiWorkspace<float> mi_ws_;
   MatrixXf actions_, mu_, values_, scratch_;
   struct MinibatchScratch {  ///< update_policy's buffers (sized on the first update, then reused)
     MatrixXf adv, pin, act, obs, full, norm_in, norm_obs, dmu, dls, dv, target, vold, mu_target;

@@ -83,8 +83,8 @@ struct MaskConfig {
   double lambda_mi = 1.0;  ///< weight of L_MI = KL(π(·|s,m⁰) ‖ π(·|s̄,m)); 0 disables
   /// "both": exact KL gradient through both distributions (default; stable);
   /// "target_stopped": the unmasked policy is a constant target (the paper's formula, literally —
-  /// it diverged in our measurements, see adapt/mi_loss.hpp and docs/results.md);
-  /// "target_frozen": the target is the pre-update policy of the iteration (adapt/mi_loss.hpp);
+  /// it diverged in our measurements, see rl/mi_loss.hpp and docs/results.md);
+  /// "target_frozen": the target is the pre-update policy of the iteration (rl/mi_loss.hpp);
   /// "target_ema": the target is a moving-average copy of the policy (rate `mi_target_tau` per
   /// iteration), and null-mask samples count too, anchoring the unmasked policy to it.
   std::string mi_gradient = "both";

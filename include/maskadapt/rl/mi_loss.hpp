@@ -52,7 +52,7 @@
 #include <type_traits>
 #include <vector>
 
-namespace maskadapt::adapt {
+namespace maskadapt::rl {
 
 /// Which distributions the MI gradient flows through (see the file comment).
 enum class MiGradient { Both, TargetStopped, TargetFrozen, TargetEma };
@@ -298,4 +298,4 @@ void masked_policy_input(const Eigen::Ref<const MatrixX<T>>& obs, const std::vec
   }
 }
 
-}  // namespace maskadapt::adapt
+}  // namespace maskadapt::rl
