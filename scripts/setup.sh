@@ -35,6 +35,7 @@ packages=(
   libopenblas-dev
   libmujoco-dev
   clang            # libFuzzer targets (tests/fuzz) run in CI
+  ccache           # compiler cache; CMakeLists.txt compiles through it when present (docs/development.md)
 )
 [ "$with_torch" = 1 ] && packages+=(libtorch-dev)
 [ "$with_mpi" = 1 ] && packages+=(libopenmpi-dev openmpi-bin)
@@ -50,6 +51,17 @@ if [ "${#missing[@]}" -gt 0 ]; then
   [ "$(id -u)" -ne 0 ] && sudo_cmd="sudo"
   $sudo_cmd apt-get update
   DEBIAN_FRONTEND=noninteractive $sudo_cmd apt-get install -y "${missing[@]}"
+fi
+
+# The compiler cache holds the Release and the sanitizer build (test.sh builds both, ~3 GB) for
+# every checkout on this machine; ccache's default 5 GB would evict one build type while the other
+# compiles. Raise the limit to 8 GB where it is lower; a larger (or unlimited, 0) one is kept.
+max_gb=$(ccache -k max_size 2>/dev/null | awk '{ s = $0; gsub(/[ B]/, "", s); n = s + 0; u = substr(s, length(s));
+  if (u == "i") u = substr(s, length(s) - 1, 1);
+  print n * (u == "T" ? 1000 : u == "G" ? 1 : u == "M" ? 0.001 : u == "K" ? 1e-6 : 1e-9) }')
+if awk -v g="${max_gb:-0}" 'BEGIN { exit !(g > 0 && g < 8) }'; then
+  echo "setup.sh: ccache max_size ${max_gb} GB -> 8 GB"
+  ccache -M 8G >/dev/null
 fi
 
 if [ "$build" = 1 ]; then
