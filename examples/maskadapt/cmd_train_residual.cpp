@@ -52,9 +52,11 @@ struct Args {
   std::vector<std::string> new_motion, masks, motions, texts;
   std::string designated = "arms", goal_parts, character;
   // Numeric values were range-checked while parsing (cli_checks.hpp); −1 means "not given".
-  int envs = -1, threads = -1, goal_trajectories = -1, sample_every = -1;
+  int envs = -1, threads = -1, goal_trajectories = -1, sample_every = -1, noise_hold_steps = -1;
+  std::vector<double> objective_weights;
   long long iterations = -1, seed = -1;
-  double minutes = -1, switch_rate = -1, episode_seconds = -1, term_threshold = -1, residual_std = -1, blend_resets = -1;
+  double minutes = -1, switch_rate = -1, episode_seconds = -1, term_threshold = -1, residual_std = -1, blend_resets = -1,
+         location_facing_weight = -1, strike_approach_weight = -1;
   std::vector<Index> hidden;
   std::vector<std::string> composition_only, tracking_only;  ///< such flags given on the command line
 };
@@ -108,11 +110,13 @@ std::vector<BoxObject> task_objects(const std::string& task) {
 /// The goal task of a run (tasks/location.hpp, heading.hpp, strike.hpp; their defaults), for
 /// `sim`'s envs; `seed` seeds its goal streams, env e drawing from that of env first_env + e (a
 /// distributed run's rank offset). Strike bodies: the hands.
-tasks::AnyGoalTask<MujocoHumanoidSim> make_goal_task(const std::string& task, const MujocoHumanoidSim& sim, std::uint64_t seed,
-                                                     Index first_env = 0) {
+/// The goal task `task` of a run with config `c` (its reward options), drawing from `seed`.
+tasks::AnyGoalTask<MujocoHumanoidSim> make_goal_task(const std::string& task, const ResidualTrainConfig& c,
+                                                     const MujocoHumanoidSim& sim, std::uint64_t seed, Index first_env = 0) {
   const auto N = static_cast<Index>(sim.num_envs());
   if (task == "location") {
     tasks::LocationConfig lc;
+    lc.facing_weight = c.location_facing_weight;
     lc.seed = seed;
     lc.first_env = first_env;
     return tasks::LocationTask(lc, N);
@@ -125,6 +129,7 @@ tasks::AnyGoalTask<MujocoHumanoidSim> make_goal_task(const std::string& task, co
   }
   require(task == "strike" && sim.num_objects() == 1, "no goal task '" + task + "' for this scene", {{}, {}, "--task"});
   tasks::StrikeConfig sc;
+  sc.approach_weight = c.strike_approach_weight;
   sc.seed = seed;
   sc.first_env = first_env;
   sc.box_half_height = sim.objects().front().half_size.z();
@@ -162,7 +167,7 @@ ResidualSetup<Sim> make_setup(const ResidualTrainConfig& c, const std::shared_pt
   }
   if (c.method == "ours") {
     auto set = blends ? blends : std::make_shared<const tasks::BlendedMotionSet>(*base_lib, *new_lib, s.masks);
-    DiscriminatorSource src{"composition", 1.0, {}, true,
+    DiscriminatorSource src{"composition", w.size() > 0 ? w[0] : 1.0, {}, true,
                             [set](Rng& r, Index B, MatrixXf& x, MatrixXf& m) { set->sample_real(r, B, x, m); },
                             [set](Rng& r, Index B, MatrixXf& x, MatrixXf& m) { set->sample_negative(r, B, x, m); }};
     s.discriminators.push_back(src);
@@ -250,6 +255,10 @@ void run_train_residual(const Args& a) {
     if (!a.hidden.empty()) c.residual_hidden = a.hidden;
     if (a.residual_std > 0) c.residual_std = a.residual_std;
     if (a.blend_resets >= 0) c.blend_resets = a.blend_resets;
+    if (a.noise_hold_steps > 0) c.noise_hold_steps = a.noise_hold_steps;
+    if (a.location_facing_weight >= 0) c.location_facing_weight = a.location_facing_weight;
+    if (a.strike_approach_weight >= 0) c.strike_approach_weight = a.strike_approach_weight;
+    if (!a.objective_weights.empty()) c.objective_weights = a.objective_weights;
     require(c.method == "scratch" || !a.base.empty(), "a base checkpoint is needed (or --method scratch)", {{}, {}, "--base"});
     if (c.method != "scratch") {
       // The frozen base's architecture and, unless --motions, its motion set A come from its checkpoint.
@@ -285,7 +294,10 @@ void run_train_residual(const Args& a) {
                              {{"env.num_envs", "--envs"}, {"run.threads", "--threads"}, {"run.iterations", "--iterations"},
                               {"run.minutes", "--minutes"}, {"run.out_dir", "--out"}, {"env.motions", "--motions"},
                               {"env.episode_seconds", "--episode-seconds"}, {"switch_rate", "--switch-rate"},
-                              {"masks", "--masks"}, {"task", "--task"}, {"method", "--method"}, {"blend_resets", "--blend-resets"}});
+                              {"masks", "--masks"}, {"task", "--task"}, {"method", "--method"}, {"blend_resets", "--blend-resets"},
+                              {"noise_hold_steps", "--noise-hold-steps"}, {"objective_weights", "--objective-weights"},
+                              {"location_facing_weight", "--location-facing-weight"},
+                              {"strike_approach_weight", "--strike-approach-weight"}});
   require(c.task != "composition" || !c.new_motions.empty(), "composition needs --new-motion", {{}, {}, "--new-motion"});
 
   const MujocoCharacter& character = mujoco_character(c.rl.env.character, "env.character");
@@ -333,8 +345,16 @@ void run_train_residual(const Args& a) {
     setup.goal_weight = c.objective_weights.size() > 1 ? c.objective_weights[1] : 0.5;
   }
   if (is_goal_task(c.task)) {
-    setup.goal = make_goal_task(c.task, sim, c.rl.run.seed, first_env);
+    setup.goal = make_goal_task(c.task, c, sim, c.rl.run.seed, first_env);
     setup.goal_weight = c.objective_weights.empty() ? 0.5 : c.objective_weights.back();
+  }
+  {
+    const std::size_t objectives = setup.discriminators.size() + (setup.goal ? 1 : 0);
+    require(c.objective_weights.empty() || c.objective_weights.size() == objectives,
+            "this run has " + std::to_string(objectives) + " objective(s) (" + std::to_string(setup.discriminators.size()) +
+                " discriminator(s)" + (setup.goal ? " and the goal task" : "") + "), so it needs that many weights, not " +
+                std::to_string(c.objective_weights.size()),
+            {{}, {}, "--objective-weights"});
   }
   out << "train-residual: " << character.name << ", task " << c.task << ", method " << c.method << ", masks";
   for (const auto& m : setup.masks) out << " " << m.to_string();
@@ -428,7 +448,7 @@ void run_play(const PlayArgs& a, const std::string& command_line) {
   // goal tasks: the run's task draws goals on its schedule from this seed (target, heading, box)
   tasks::AnyGoalTask<MujocoHumanoidSim> goal;
   if (is_goal_task(c.task)) {
-    goal = make_goal_task(c.task, sim, static_cast<std::uint64_t>(a.seed));
+    goal = make_goal_task(c.task, c, sim, static_cast<std::uint64_t>(a.seed));
     goal.new_episode(sim, 0);
   }
   if (tracking_task) {
@@ -571,9 +591,13 @@ void run_eval(const EvalArgs& a) {
     opt.deterministic = !a.stochastic;
     opt.seed = static_cast<std::uint64_t>(a.seed);
     opt.episode_seconds = c.rl.env.episode_seconds;
+    // the paper's reward whatever shaping the run trained with, so that mean rewards compare
+    // across runs (the success test does not depend on it)
+    const ResidualTrainConfig paper_rewards;
     auto evaluate = [&]<class Policy>() {
       const auto pol = stage2_policy_from_checkpoint<Policy>(ck, sim.skeleton());
-      return evaluate_goal_task(sim, pol, make_goal_task(task, sim, opt.seed), mask, library_reset_sampler(base_lib), fall, opt,
+      return evaluate_goal_task(sim, pol, make_goal_task(task, paper_rewards, sim, opt.seed), mask,
+                                library_reset_sampler(base_lib), fall, opt,
                                 &pool);
     };
     const GoalEvalResult r = c.method == "adaptnet" ? evaluate.template operator()<adapt::AdaptNetPolicy<float>>()
@@ -695,6 +719,19 @@ const bool registered = maskadapt::cli::register_command([](CLI::App& app) {
   keep(c->add_option("--residual-std", a->residual_std,
                      "σ of the residual's exploration on the adapted DoFs (action units; default: the base's σ)"))
       ->check(positive_real(10.0));
+  keep(c->add_option("--noise-hold-steps", a->noise_hold_steps,
+                     "control steps each draw of exploration noise is held (default 1: fresh every step)"))
+      ->transform(integer_in(1, 100000));
+  keep(c->add_option("--location-facing-weight", a->location_facing_weight,
+                     "location: weight of the facing shaping term (1 + f·d)/2 in the reward (default 0: the paper's)"))
+      ->check(probability());
+  keep(c->add_option("--strike-approach-weight", a->strike_approach_weight,
+                     "strike: weight of the approach shaping term in the reward (default 0: the paper's)"))
+      ->check(probability());
+  keep(c->add_option("--objective-weights", a->objective_weights,
+                     "weights of the objectives' normalised advantages: one per discriminator, then the goal task's "
+                     "(default: ours 1, cml 0.5 0.5, goal task 0.5)"))
+      ->check(non_negative_real());
   keep(c->add_option("--blend-resets", a->blend_resets,
                      "composition: share of resets from the part-wise blends of A and B (B's pose on the adapted "
                      "parts; default 0: every reset from A)"))

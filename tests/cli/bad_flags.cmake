@@ -137,6 +137,18 @@ bad(--hidden -16 ${R} --hidden -16)
 foreach(v 0 -0.2 11 nan abc)
   bad(--residual-std ${v} ${R} --residual-std ${v})
 endforeach()
+foreach(v 0 -2 1.5 abc 100001)
+  bad(--noise-hold-steps ${v} ${R} --noise-hold-steps ${v})
+endforeach()
+foreach(v -0.5 1.5 nan abc)
+  bad(--location-facing-weight ${v} ${R} --task location --location-facing-weight ${v})
+endforeach()
+foreach(v -0.5 1.5 nan abc)
+  bad(--strike-approach-weight ${v} ${R} --task strike --strike-approach-weight ${v})
+endforeach()
+foreach(v -1 nan abc)
+  bad(--objective-weights ${v} ${R} --objective-weights 0.5 ${v})
+endforeach()
 bad(--task foo ${R} --task foo)
 bad(--method bar ${R} --method bar)
 bad(--gain big ${R} --gain big)
@@ -150,6 +162,7 @@ bad(--goal-parts tail ${R} --task location --goal-parts tail)
 bad(--envs - train-residual --resume ${MISSING} --envs 4)
 bad(--task - train-residual --resume ${MISSING} --task tracking)
 bad(--residual-std - train-residual --resume ${MISSING} --residual-std 0.2)
+bad(--noise-hold-steps - train-residual --resume ${MISSING} --noise-hold-steps 5)
 if(HAS_MUJOCO)
   # a flag of the other task (checked once the task is known)
   bad(--term-threshold - train-residual --method scratch --task composition --new-motion kick --term-threshold 0.1
@@ -158,6 +171,11 @@ if(HAS_MUJOCO)
   # AdaptNet adapts the base to a goal task only; a goal task refuses the tracking flags
   bad(--method - train-residual --method adaptnet --task composition --new-motion kick --iterations 1 --out ${OUT}/never)
   bad(--generator - train-residual --method scratch --task location --generator x.ckpt --iterations 1 --out ${OUT}/never)
+  # the facing shaping is the location task's; one objective weight per objective
+  bad(--location-facing-weight - train-residual --method scratch --task heading --location-facing-weight 0.3
+      --iterations 1 --out ${OUT}/never)
+  bad(--objective-weights - train-residual --method scratch --task location --objective-weights 0.2 0.3 0.5
+      --iterations 1 --out ${OUT}/never)
   # goal parts are a goal task's
   bad(--goal-parts - train-residual --method scratch --task composition --new-motion kick --goal-parts lower_body
       --iterations 1 --out ${OUT}/never)

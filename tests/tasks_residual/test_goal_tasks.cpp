@@ -57,6 +57,35 @@ TEST(LocationTask, RewardIsOneInsideTheRadiusAndTheVelocityTermOutside) {
   EXPECT_NEAR(tasks::location_reward(root, Vec3(0.3, 0.4, 0.0), target, c), std::exp(-4.0 * 0.25), 1e-12);  // half speed
 }
 
+TEST(LocationTask, FacingShapingMixesTheHalfCosineOfTheTargetsBearingOutsideTheRadius) {
+  tasks::LocationConfig c;  // R 0.5 m, v* 1 m/s, k 4
+  const Vec3 root(0, 0, 0.9), target(3, 4, 0);  // 5 m away along (0.6, 0.8)
+  // w = 0 is the paper's reward whatever the facing
+  EXPECT_EQ(tasks::location_reward(root, yaw(2.0), Vec3(0.3, 0.4, 0), target, c),
+            tasks::location_reward(root, Vec3(0.3, 0.4, 0), target, c));
+  c.facing_weight = 0.3;
+  const double bearing = std::atan2(0.8, 0.6);
+  // facing the target, standing: 0.7·e^−4 + 0.3·1
+  EXPECT_NEAR(tasks::location_reward(root, yaw(bearing), Vec3::Zero(), target, c), 0.7 * std::exp(-4.0) + 0.3, 1e-12);
+  // facing away, walking toward it at v*: 0.7·1 + 0.3·0
+  EXPECT_NEAR(tasks::location_reward(root, yaw(bearing + M_PI), Vec3(0.6, 0.8, 0), target, c), 0.7, 1e-12);
+  // 90° off, standing: 0.7·e^−4 + 0.3·0.5 — the term still rises as the character turns toward it
+  EXPECT_NEAR(tasks::location_reward(root, yaw(bearing + M_PI / 2), Vec3::Zero(), target, c), 0.7 * std::exp(-4.0) + 0.15, 1e-12);
+  EXPECT_LT(tasks::location_reward(root, yaw(bearing + 2.0), Vec3::Zero(), target, c),
+            tasks::location_reward(root, yaw(bearing + 1.0), Vec3::Zero(), target, c));
+  // inside R: 1, as without shaping
+  EXPECT_EQ(tasks::location_reward(Vec3(3.3, 4.0, 0.9), yaw(bearing + M_PI), Vec3::Zero(), target, c), 1.0);
+  for (const double bad : {-0.1, 1.5, std::nan("")}) {
+    c.facing_weight = bad;
+    try {
+      c.validate();
+      ADD_FAILURE() << bad << " accepted";
+    } catch (const Error& e) {
+      EXPECT_NE(std::string(e.what()).find("location.facing_weight"), std::string::npos) << e.what();
+    }
+  }
+}
+
 TEST(LocationTask, GoalIsDirectionSpeedDistanceInTheHeadingFrame) {
   tasks::LocationConfig c;
   c.speed = 1.2;
@@ -137,6 +166,38 @@ TEST(HeadingTask, SuccessIsTheMeanVelocityAlongTheDirectionWithinTolerance) {
 }
 
 // ---- strike ----------------------------------------------------------------------------------------
+
+TEST(StrikeTask, ApproachShapingRewardsWalkingTowardAndFacingTheBoxUntilWithinReach) {
+  tasks::StrikeConfig c;  // v* 1 m/s, reach 1 m
+  c.strike_bodies = {2};
+  const Vec3 root(0, 0, 0.9), box(3, 4, 0.6);  // 5 m away along (0.6, 0.8)
+  const double bearing = std::atan2(0.8, 0.6);
+  // facing the box and walking to it at v*: 0.5·1 + 0.5·1
+  EXPECT_NEAR(tasks::strike_approach(root, yaw(bearing), Vec3(0.6, 0.8, 0), box, false, c), 1.0, 1e-12);
+  // facing away, standing: 0.5·e^−4 + 0.5·0
+  EXPECT_NEAR(tasks::strike_approach(root, yaw(bearing + M_PI), Vec3::Zero(), box, false, c), 0.5 * std::exp(-4.0), 1e-12);
+  // 90° off, walking sideways at v* (d·v = 0): 0.5·e^−4 + 0.5·0.5
+  EXPECT_NEAR(tasks::strike_approach(root, yaw(bearing + M_PI / 2), Vec3(-0.8, 0.6, 0), box, false, c),
+              0.5 * std::exp(-4.0) + 0.25, 1e-12);
+  // within reach (0.9 m, height ignored) or once tilted: 1 whatever the motion
+  EXPECT_EQ(tasks::strike_approach(Vec3(3.0, 3.1, 0.2), yaw(bearing + M_PI), Vec3::Zero(), box, false, c), 1.0);
+  EXPECT_EQ(tasks::strike_approach(root, yaw(bearing + M_PI), Vec3::Zero(), box, true, c), 1.0);
+  // the mix: (1 − w)·tilt term + w·approach; w = 0 is the paper's reward
+  const Quat tilt60(Eigen::AngleAxisd(M_PI / 3, Vec3::UnitX()));
+  EXPECT_NEAR(tasks::strike_reward(tilt60, 0.2, c), 0.5, 1e-12);
+  c.approach_weight = 0.4;
+  EXPECT_NEAR(tasks::strike_reward(tilt60, 0.2, c), 0.6 * 0.5 + 0.4 * 0.2, 1e-12);
+  EXPECT_NEAR(tasks::strike_reward(Quat::Identity(), 1.0, c), 0.4, 1e-12);  // upright box, character at it
+  for (const double bad : {-0.5, 2.0, std::nan("")}) {
+    c.approach_weight = bad;
+    try {
+      c.validate();
+      ADD_FAILURE() << bad << " accepted";
+    } catch (const Error& e) {
+      EXPECT_NE(std::string(e.what()).find("strike.approach_weight"), std::string::npos) << e.what();
+    }
+  }
+}
 
 TEST(StrikeTask, BoxTiltedBy80DegreesSucceedsBy70DoesNot) {
   const auto tilt = [](double deg) { return Quat(Eigen::AngleAxisd(deg * M_PI / 180.0, Vec3::UnitX())); };

@@ -820,3 +820,152 @@ TEST(ResidualConfig, KeepsTheTrackingPromptsThroughJson) {
   old["texts"] = 3;
   EXPECT_THROW(residual_config_from_json(old, "run.bin"), Error);
 }
+
+// Held exploration noise (ResidualTrainConfig::noise_hold_steps = k): within one episode and one
+// mask every env's deviation a − μ̂ is a single draw kept for k steps, then drawn afresh; the
+// recorded log-probability is the masked Gaussian density of the held action under that step's
+// own mean (computed here by hand); and a run resumed in the middle of a hold continues bit-exactly.
+TEST(ResidualTrainer, HeldNoiseKeepsOneDeviationForKStepsAndResumesMidHold) {
+  MASKADAPT_REQUIRE_REQUESTED_BLAS_CORE();
+  Data d;
+  const auto fall = [](const Skeleton& s) { return FallCriteria::for_skeleton(s, {"l_leg", "r_leg"}, "head", 0.8); };
+  constexpr int k = 3;
+  ResidualTrainConfig cfg = tiny_config("location", "ours");
+  cfg.noise_hold_steps = k;
+  auto make = [&](TinyWalkerSim& sim) {
+    ResidualSetup<TinyWalkerSim> setup = composition_setup(d, "ours", observation_parts(sim.skeleton()));
+    tasks::LocationConfig lc;
+    lc.schedule = {3, 5};
+    lc.seed = 11;
+    setup.goal = tasks::LocationTask(lc, 4);
+    return std::make_unique<ResidualTrainer<TinyWalkerSim>>(sim, upright(sim.skeleton()), tiny_base(sim.skeleton()),
+                                                            std::move(setup), cfg, nullptr, fall(sim.skeleton()));
+  };
+  TinyWalkerSim sim(4);
+  auto run = make(sim);
+  // the policy that collects the first rollout: its residual output is exactly 0, so its mean is
+  // the base's whatever the input normaliser learns while collecting
+  const adapt::ResidualPolicy<float> collecting = run->policy();
+  run->iterate();  // (every counter starts at 0: the first step of each env draws)
+  const auto& buf = run->rollout();
+  const Index N = 4, H = cfg.rl.ppo.horizon, A = collecting.action_dim();
+  MatrixXf mu;
+  adapt::ResidualWorkspace<float> ws;
+  collecting.mean(buf.policy_input, buf.masks, mu, ws);
+  MatrixXf log_std;
+  collecting.log_std(buf.masks, log_std);
+  const double half_log_2pi = 0.5 * std::log(2.0 * M_PI);
+  int fresh_after_k = 0, held = 0;
+  for (Index e = 0; e < N; ++e) {
+    VectorXf start_dev;
+    int run_length = 0;
+    for (Index t = 0; t < H; ++t) {
+      const Index c = t * N + e;
+      const VectorXf dev = buf.actions.col(c) - mu.col(c);
+      // log-probability: Σ over the masked DoFs of the Gaussian log-density, by hand
+      const VectorXf sel = adapt::dof_selector<float>(collecting.dof_parts(), buf.masks[static_cast<std::size_t>(c)]);
+      double lp = 0;
+      for (Index i = 0; i < A; ++i)
+        if (sel[i] != 0) {
+          const double z = dev[i] / std::exp(static_cast<double>(log_std(i, c)));
+          lp += -0.5 * z * z - log_std(i, c) - half_log_2pi;
+        }
+      EXPECT_NEAR(buf.log_probs[c], lp, 1e-3 * (1 + std::abs(lp))) << "env " << e << " step " << t;
+      const bool boundary = t == 0 || buf.terminated[static_cast<std::size_t>(c - N)] || buf.truncated[static_cast<std::size_t>(c - N)] ||
+                            buf.masks[static_cast<std::size_t>(c)].bits != buf.masks[static_cast<std::size_t>(c - N)].bits;
+      if (boundary || run_length == k) {
+        if (!boundary) {  // the hold ran out: a fresh draw, not the old deviation
+          EXPECT_GT((dev - start_dev).norm(), 1e-3) << "env " << e << " step " << t;
+          ++fresh_after_k;
+        }
+        start_dev = dev;
+        run_length = 1;
+      } else {
+        EXPECT_LT((dev - start_dev).norm(), 1e-4) << "env " << e << " step " << t << ": the deviation was not held";
+        ++run_length;
+        ++held;
+      }
+    }
+  }
+  EXPECT_GT(fresh_after_k, 0) << "no hold ran out inside the rollout; the test would not see a redraw";
+  EXPECT_GT(held, 0);
+
+  // resumed after 2 iterations of 8 steps: 16 = 5·3 + 1, every env mid-hold unless an episode ended
+  TinyWalkerSim sim_a(4), sim_b(4), sim_c(4);
+  auto straight = make(sim_a);
+  std::vector<IterationStats> ref;
+  for (int i = 0; i < 4; ++i) ref.push_back(straight->iterate());
+  auto first = make(sim_b);
+  first->iterate();
+  first->iterate();
+  Checkpoint ck;
+  first->save(ck);
+  ASSERT_TRUE(ck.contains("state/noise_hold/deviation"));
+  auto resumed = make(sim_c);
+  resumed->load(ck);
+  for (int i = 2; i < 4; ++i) {
+    const IterationStats st = resumed->iterate();
+    EXPECT_EQ(st.policy_loss, ref[static_cast<std::size_t>(i)].policy_loss) << "iteration " << i + 1;
+    EXPECT_EQ(st.extra, ref[static_cast<std::size_t>(i)].extra) << "iteration " << i + 1;
+  }
+  EXPECT_TRUE(same_bits(VectorXf(resumed->policy().residual().mean_net.params()), VectorXf(straight->policy().residual().mean_net.params())));
+
+  // a checkpoint without the held noise is refused by a run that holds noise, naming the section
+  ck.erase("state/noise_hold/deviation");
+  TinyWalkerSim sim_d(4);
+  auto broken = make(sim_d);
+  try {
+    broken->load(ck);
+    ADD_FAILURE() << "a checkpoint without state/noise_hold/deviation was accepted";
+  } catch (const Error& err) {
+    EXPECT_NE(std::string(err.what()).find("noise_hold"), std::string::npos) << err.what();
+  }
+}
+
+TEST(ResidualConfig, KeepsTheNoiseHoldAndObjectiveWeightsThroughJsonAndRejectsBadValues) {
+  ResidualTrainConfig c = tiny_config("location", "ours");
+  c.noise_hold_steps = 6;
+  c.objective_weights = {0.2, 0.8};
+  const ResidualTrainConfig back = residual_config_from_json(to_json(c));
+  EXPECT_EQ(back.noise_hold_steps, 6);
+  EXPECT_EQ(back.objective_weights, (std::vector<double>{0.2, 0.8}));
+  nlohmann::json old = to_json(c);
+  old.erase("noise_hold_steps");  // a checkpoint from before the option: fresh noise every step
+  EXPECT_EQ(residual_config_from_json(old).noise_hold_steps, 1);
+  for (const int bad : {0, -3}) {
+    ResidualTrainConfig b = c;
+    b.noise_hold_steps = bad;
+    try {
+      b.validate();
+      ADD_FAILURE() << bad << " accepted";
+    } catch (const Error& err) {
+      EXPECT_NE(std::string(err.what()).find("noise_hold_steps"), std::string::npos) << err.what();
+    }
+  }
+  ResidualTrainConfig f = c;  // the facing shaping: kept, absent = the paper's reward, location only
+  f.location_facing_weight = 0.3;
+  EXPECT_EQ(residual_config_from_json(to_json(f)).location_facing_weight, 0.3);
+  EXPECT_EQ(residual_config_from_json(old).location_facing_weight, 0.0);
+  f.location_facing_weight = 1.2;
+  EXPECT_THROW(f.validate(), Error);
+  f.location_facing_weight = 0.3;
+  f.task = "heading";
+  try {
+    f.validate();
+    ADD_FAILURE() << "a facing weight on the heading task was accepted";
+  } catch (const Error& err) {
+    EXPECT_NE(std::string(err.what()).find("location_facing_weight"), std::string::npos) << err.what();
+  }
+  ResidualTrainConfig sa = c;  // the strike's approach shaping: kept, absent = the paper's, strike only
+  sa.task = "strike";
+  sa.strike_approach_weight = 0.4;
+  EXPECT_EQ(residual_config_from_json(to_json(sa)).strike_approach_weight, 0.4);
+  EXPECT_EQ(residual_config_from_json(old).strike_approach_weight, 0.0);
+  sa.task = "location";
+  EXPECT_THROW(sa.validate(), Error);
+  ResidualTrainConfig w = c;
+  w.objective_weights = {0.5, -1.0};
+  EXPECT_THROW(w.validate(), Error);
+  w.objective_weights = {0.5, std::nan("")};
+  EXPECT_THROW(w.validate(), Error);
+}

@@ -9,6 +9,11 @@
 ///    it follows (ASE, Peng et al. 2022; 0.25 is ASE's heading scale, which a wave-1 version used
 ///    here by mistake: standing still then scored exp(−0.25) = 0.78). Unlike ASE we do not clip
 ///    the error at 0 (the paper's formula does not), so walking faster than v* costs too;
+///    With `facing_weight` w > 0 the reward outside R is shaped for turning (not the paper's):
+///    (1 − w)·exp(−k·(v* − d·v_root)²) + w·(1 + f·d)/2, f the root's facing direction on the
+///    ground. The paper's term is ≈ 0 whenever the target is more than ≈ 90° off the walking
+///    direction (d·v ≤ 0 ⇒ exp(−4) ≈ 0.02 for v* = 1 m/s), so half of all targets give no gradient
+///    toward turning; (1 + f·d)/2 rises from 0 (target behind) to 1 (target ahead) everywhere;
 ///  - goal observation g ∈ R⁴: d in the root's heading frame (2), v* (1), distance (1, m);
 ///  - success: the root comes within R of the target while the trial's goal is held;
 ///  - schedule: a new target every `schedule` steps (uniform), drawn at a uniform angle and a
@@ -25,6 +30,7 @@ struct LocationConfig {
   double radius = 0.5;          ///< R (m)
   double speed = 1.0;           ///< v* (m/s)
   double velocity_scale = 4.0;  ///< k (s²/m²)
+  double facing_weight = 0.0;   ///< w of the facing shaping term (0: the paper's reward)
   double min_distance = 1.0, max_distance = 5.0;  ///< target distance from the root when drawn (m)
   GoalSchedule schedule{150, 300};                ///< steps a target is held (5–10 s at 30 Hz)
   std::uint64_t seed = 1;
@@ -35,6 +41,8 @@ struct LocationConfig {
   void validate() const {
     require(radius > 0 && speed > 0 && velocity_scale > 0, "radius, speed and velocity_scale must be > 0",
             {{}, {}, "location"});
+    require(std::isfinite(facing_weight) && facing_weight >= 0 && facing_weight <= 1, "must be in [0, 1]",
+            {{}, {}, "location.facing_weight"});
     require(min_distance > 0 && max_distance >= min_distance, "need 0 < min_distance <= max_distance",
             {{}, {}, "location.distance"});
     schedule.validate("location.schedule");
@@ -50,6 +58,20 @@ inline double location_reward(const Vec3& root_pos, const Vec3& root_vel, const 
   const Vec3 d = to / dist;
   const double err = c.speed - d.dot(Vec3(root_vel.x(), root_vel.y(), 0.0));
   return std::exp(-c.velocity_scale * err * err);
+}
+
+/// The reward with the facing shaping term (see the file comment); `root_rot` gives the facing.
+/// facing_weight = 0 is exactly the paper's reward above.
+inline double location_reward(const Vec3& root_pos, const Quat& root_rot, const Vec3& root_vel, const Vec3& target,
+                              const LocationConfig& c) {
+  const double paper = location_reward(root_pos, root_vel, target, c);
+  if (c.facing_weight == 0) return paper;
+  Vec3 to = target - root_pos;
+  to.z() = 0;
+  const double dist = to.norm();
+  if (dist <= c.radius) return 1.0;
+  const double facing = facing_direction(root_rot).dot(to / dist);
+  return (1 - c.facing_weight) * paper + c.facing_weight * 0.5 * (1 + facing);
 }
 
 /// g ∈ R⁴ = [d in the heading frame (2), v*, distance].
@@ -95,7 +117,7 @@ class LocationTask {
     }
     const BodyStates& b = sim.body_states(u);
     const Vec3 p = b.pos.col(0);
-    last_reward_[u] = static_cast<float>(location_reward(p, b.lin_vel.col(0), target_[u], c_));
+    last_reward_[u] = static_cast<float>(location_reward(p, b.rot[0], b.lin_vel.col(0), target_[u], c_));
     Vec3 to = target_[u] - p;
     to.z() = 0;
     if (to.norm() <= c_.radius) reached_[u] = 1;

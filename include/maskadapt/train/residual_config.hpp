@@ -44,6 +44,20 @@ struct ResidualTrainConfig {
   std::string gain = "scalar";        ///< fixed | scalar | per_dof
   double init_gain = 1.0;
   double residual_std = 0.0;          ///< σ_ψ of the residual (action units); 0 = the base's σ (adapt::ResidualConfig::init_std)
+  /// Exploration noise held for this many control steps (1 = fresh noise every step, the paper's
+  /// PPO). With k > 1 each env draws the composite's deviation a − μ̂ once every k steps (and at
+  /// every episode start) and adds that same deviation to the mean of the next k − 1 steps, so
+  /// the exploration is a piecewise-constant offset rather than 30 Hz white noise (a steering
+  /// change lasts long enough to turn the walker). Every step stays one PPO sample whose
+  /// log-probability is taken under that step's Gaussian, as with state-dependent exploration
+  /// (gSDE's sample frequency). Evaluation uses the mean and is unaffected.
+  int noise_hold_steps = 1;
+  /// location: weight w of the facing shaping term (tasks::LocationConfig::facing_weight; 0 = the
+  /// paper's reward)
+  double location_facing_weight = 0.0;
+  /// strike: weight w of the approach shaping term (tasks::StrikeConfig::approach_weight; 0 = the
+  /// paper's reward)
+  double strike_approach_weight = 0.0;
   // tracking
   std::string designated = "arms";    ///< parts that follow the generated trajectory
   std::vector<std::string> texts;     ///< prompts sampled for the goals; empty: the generator's arms pool (else the clips')
@@ -76,6 +90,18 @@ struct ResidualTrainConfig {
             {{}, {}, "blend_resets"});
     require(goal_steps >= 1 && sample_every >= 1 && goal_trajectories >= 1, "tracking counts must be ≥ 1", {{}, {}, "tracking"});
     require(term_window_s > 0, "must be > 0", {{}, {}, "term_window_s"});
+    require(noise_hold_steps >= 1 && noise_hold_steps <= 100000, "must be in [1, 100000] control steps",
+            {{}, {}, "noise_hold_steps"});
+    require(std::isfinite(location_facing_weight) && location_facing_weight >= 0 && location_facing_weight <= 1,
+            "must be in [0, 1]", {{}, {}, "location_facing_weight"});
+    require(location_facing_weight == 0 || task == "location",
+            "the facing shaping term is the location task's, not " + task + "'s", {{}, {}, "location_facing_weight"});
+    require(std::isfinite(strike_approach_weight) && strike_approach_weight >= 0 && strike_approach_weight <= 1,
+            "must be in [0, 1]", {{}, {}, "strike_approach_weight"});
+    require(strike_approach_weight == 0 || task == "strike",
+            "the approach shaping term is the strike task's, not " + task + "'s", {{}, {}, "strike_approach_weight"});
+    for (const double w : objective_weights)
+      require(std::isfinite(w) && w >= 0, "every objective weight must be finite and ≥ 0", {{}, {}, "objective_weights"});
     if (!goal_parts.empty()) {
       (void)PartMask::parse(goal_parts, "goal_parts");
       require(task == "location" || task == "heading" || task == "strike",
@@ -99,6 +125,9 @@ inline nlohmann::json to_json(const ResidualTrainConfig& c) {
           {"gain", c.gain},
           {"init_gain", c.init_gain},
           {"residual_std", c.residual_std},
+          {"noise_hold_steps", c.noise_hold_steps},
+          {"location_facing_weight", c.location_facing_weight},
+          {"strike_approach_weight", c.strike_approach_weight},
           {"designated", c.designated},
           {"texts", c.texts},
           {"goal_parts", c.goal_parts},
@@ -127,6 +156,9 @@ inline ResidualTrainConfig residual_config_from_json(const nlohmann::json& j, co
     c.gain = j.at("gain");
     c.init_gain = j.at("init_gain");
     c.residual_std = j.value("residual_std", 0.0);  // (absent before it was recorded: the base's σ)
+    c.noise_hold_steps = j.value("noise_hold_steps", 1);  // (absent before it existed: fresh noise every step)
+    c.location_facing_weight = j.value("location_facing_weight", 0.0);  // (absent before it existed: the paper's reward)
+    c.strike_approach_weight = j.value("strike_approach_weight", 0.0);  // (absent before it existed: the paper's reward)
     c.designated = j.at("designated");
     c.texts = j.value("texts", std::vector<std::string>());  // (absent before it was recorded: the pool)
     c.goal_parts = j.value("goal_parts", std::string());  // (absent before goal parts existed: none)

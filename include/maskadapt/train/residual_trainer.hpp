@@ -86,8 +86,10 @@
 
 #include <nlohmann/json.hpp>
 
+#include <cstdint>
 #include <functional>
 #include <optional>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -295,6 +297,14 @@ class ResidualTrainer {
     c.put("state/masks", masks);
     save_task_state(c, "state/task/", task_);
     if (setup_.goal) setup_.goal.save(c, "state/goal_task/");
+    if (cfg_.noise_hold_steps > 1) {  // (held deviations: A × N, steps each env still holds)
+      auto& self = const_cast<ResidualTrainer&>(*this);
+      self.size_noise_hold(policy_.action_dim(), N);
+      VectorX<std::int64_t> left(N);
+      for (Index e = 0; e < N; ++e) left[e] = hold_left_[static_cast<std::size_t>(e)];
+      c.put("state/noise_hold/deviation", held_noise_);
+      c.put("state/noise_hold/steps_left", left);
+    }
   }
 
   void load_training_state(const Checkpoint& c) {
@@ -313,6 +323,13 @@ class ResidualTrainer {
     }
     load_task_state(c, "state/task/", task_);
     if (setup_.goal) setup_.goal.load(c, "state/goal_task/");
+    if (cfg_.noise_hold_steps > 1) {
+      const Index A = policy_.action_dim();
+      size_noise_hold(A, N);
+      held_noise_ = c.get_matrix<float>("state/noise_hold/deviation", A, N);
+      const auto left = c.get_vector<std::int64_t>("state/noise_hold/steps_left", N);
+      for (Index e = 0; e < N; ++e) hold_left_[static_cast<std::size_t>(e)] = static_cast<int>(left[e]);
+    }
   }
 
   static tasks::ImitationTaskConfig no_mask_task(const BaseTrainConfig& c, std::optional<FallCriteria> fall) {
@@ -391,6 +408,7 @@ class ResidualTrainer {
         t.learner_.critic().normalizer.update(cin);
         t.policy_.act(x, masks, t.rng_, t.actions_, t.logp_, t.mu_, t.ws_);
       }
+      t.hold_noise(x, masks);
       t.learner_.values(cin, v);
       t.buf_.record_policy_step(step, cin, x, masks, t.actions_, t.logp_, v);
       // The task's action space is the identity: â becomes PD targets here, through the base's
@@ -406,8 +424,12 @@ class ResidualTrainer {
         end = {g.terminated, g.truncated};
         t.goal_terminations_ += g.by_goal_task ? 1 : 0;
       }
+      const std::uint8_t mask_before = t.masks_.masks()[static_cast<std::size_t>(e)].bits;
       if (end.terminated || end.truncated) t.masks_.new_episode(e);
       else t.masks_.maybe_switch(e);
+      // a new episode or a new mask draws fresh exploration noise at its first step
+      if (end.terminated || end.truncated || t.masks_.masks()[static_cast<std::size_t>(e)].bits != mask_before)
+        t.restart_noise_hold(e);
     }
     const MatrixXf& final_values(const MatrixXf& final_obs) {
       t.critic_input(final_obs, masks, goals, cin);
@@ -421,6 +443,41 @@ class ResidualTrainer {
       return v;
     }
   };
+
+  /// Exploration noise held for cfg_.noise_hold_steps control steps (residual_config.hpp): env e
+  /// keeps the deviation a − μ̂ drawn at the first step of a hold and adds it to the mean of the
+  /// next k − 1 steps; the held actions' log-probabilities are taken under each step's own
+  /// Gaussian (the training pass's, as PPO's ratio will see them). k = 1: nothing changes.
+  void hold_noise(const MatrixXf& x, std::span<const PartMask> masks) {
+    const int k = cfg_.noise_hold_steps;
+    if (k <= 1) return;
+    const Index N = actions_.cols();
+    size_noise_hold(actions_.rows(), N);
+    bool any_held = false;
+    for (Index e = 0; e < N; ++e) {
+      int& left = hold_left_[static_cast<std::size_t>(e)];
+      if (left <= 0) {
+        held_noise_.col(e) = actions_.col(e) - mu_.col(e);
+        left = k;
+      } else {
+        actions_.col(e) = mu_.col(e) + held_noise_.col(e);
+        any_held = true;
+      }
+      --left;
+    }
+    if (any_held) {
+      policy_.forward_train(x, masks, hold_cache_);
+      policy_.log_prob(hold_cache_, actions_, logp_);
+    }
+  }
+  void restart_noise_hold(Index e) {
+    if (cfg_.noise_hold_steps > 1 && !hold_left_.empty()) hold_left_[static_cast<std::size_t>(e)] = 0;
+  }
+  void size_noise_hold(Index A, Index N) {
+    if (held_noise_.rows() == A && held_noise_.cols() == N) return;
+    held_noise_.setZero(A, N);
+    hold_left_.assign(static_cast<std::size_t>(N), 0);
+  }
 
   // ---- 2. rewards -------------------------------------------------------------------------
   void compute_rewards(IterationStats& st) {
@@ -463,6 +520,10 @@ class ResidualTrainer {
   MatrixXf actions_, mu_;
   MatrixXf targets_;  ///< PD targets of a non-identity action space
   RowVectorXf logp_;
+  // held exploration noise (cfg_.noise_hold_steps > 1)
+  MatrixXf held_noise_;            ///< (action_dim × N) deviation a − μ̂ each env holds
+  std::vector<int> hold_left_;     ///< steps each env still holds it (0: draw afresh)
+  typename Stage2Types<Policy>::Cache hold_cache_;
 };
 
 }  // namespace maskadapt::train
