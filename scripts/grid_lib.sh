@@ -18,3 +18,18 @@ already_done() {
   [[ -f "$2" ]] || return 1
   echo "== $1: done ($2)"
 }
+
+# goal_cell_args TASK DATA — the composed motion, mask and goal parts of a Table 3 cell (train-residual
+# flags): location — styles/swim on the arms (the arm-rotation stand-in of Table 2 (b): no rotate-arms
+# clip is in ../shared/data); heading — SNEAKY on the legs; strike — the Bandai punches on the arms.
+# Where the composed motion is on the arms, the residual also moves the legs for the goal
+# (--goal-parts lower_body): a residual on the arms alone cannot walk to a target or a box (measured:
+# location 4 %). DATA is the motions folder (…/shared/data/motions).
+goal_cell_args() {
+  case "$1" in
+    location) echo "--new-motion $2/styles/swim.bvh --masks arms --goal-parts lower_body" ;;
+    heading) echo "--new-motion $2/styles/SNEAKY.bvh --masks lower_body" ;;
+    strike) echo "--new-motion $2/bandai/actions/dataset-1_punch_normal_001.bvh $2/bandai/actions/dataset-1_punch_normal_002.bvh --masks arms --goal-parts lower_body" ;;
+    *) echo "goal_cell_args: unknown task '$1' (location, heading or strike)" >&2; return 2 ;;
+  esac
+}

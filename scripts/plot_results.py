@@ -7,6 +7,7 @@
   scripts/plot_results.py strip  OUT.png rollout.json [EVERY_N_FRAMES]       # side-view stick figures
   scripts/plot_results.py feet   rollout.json [HEIGHT_M] [FROM_S]             # ankle lifts (is there a kick?)
   scripts/plot_results.py visits OUT.png NAME=eval.json [NAME=…]             # which frames of B are met
+  scripts/plot_results.py windows EVERY KEY[,KEY…] NAME=log.jsonl [NAME=…]     # means over iteration windows (markdown)
 
 The plots need Debian's python3-matplotlib; the summary needs only Python.
 """
@@ -218,6 +219,24 @@ def visits(out, runs):
     fig.savefig(out)
 
 
+def windows(every, keys, runs):
+    """One markdown table per run: the mean of each key over consecutive windows of EVERY
+    iterations (null values, e.g. fall_rate in an iteration where no episode ended, are skipped)."""
+    for name, path in runs:
+        rows = read_log(path)
+        print(f"\n{name} ({path}), means over {every}-iteration windows\n")
+        print("| iterations | samples (M) | " + " | ".join(keys) + " |")
+        print("| --- | --- | " + " | ".join("---" for _ in keys) + " |")
+        for start in range(0, len(rows), every):
+            chunk = rows[start:start + every]
+            cells = []
+            for key in keys:
+                values = [r.get(key) for r in chunk if r.get(key) is not None]
+                cells.append(f"{sum(values) / len(values):.4g}" if values else "–")
+            print(f"| {chunk[0]['iteration']}–{chunk[-1]['iteration']} | {chunk[-1]['samples'] / 1e6:.2f} | "
+                  + " | ".join(cells) + " |")
+
+
 def number(text, what):
     try:
         value = float(text)
@@ -246,6 +265,11 @@ if __name__ == "__main__":
         feet(sys.argv[2], *(number(a, what) for a, what in zip(sys.argv[3:], ("HEIGHT_M", "FROM_S"))))
     elif len(sys.argv) >= 4 and sys.argv[1] == "visits":
         visits(sys.argv[2], named(sys.argv[3:]))
+    elif len(sys.argv) >= 5 and sys.argv[1] == "windows":
+        every = number(sys.argv[2], "EVERY")
+        if every < 1 or every != int(every):
+            sys.exit(f"plot_results.py: EVERY must be a whole number >= 1, got '{sys.argv[2]}'")
+        windows(int(every), sys.argv[3].split(","), named(sys.argv[4:]))
     elif len(sys.argv) >= 3 and sys.argv[1] == "hnorm-summary":
         hnorm_summary(named(sys.argv[2:]))
     else:

@@ -10,13 +10,7 @@
 # ITERATIONS; a cell with an eval_it<ITERATIONS>.json is done. So a longer budget continues the same
 # runs: ITERATIONS=4800 scripts/table3_grid.sh. Stop it at any time (Ctrl-C checkpoints first).
 #
-# Motions composed (B) and masks, as the paper pairs them (supplementary §B), with what this machine
-# has: location — styles/swim on the arms (the arm-rotation stand-in of Table 2 (b): no
-# rotate-arms clip is in ../shared/data);
-# heading — SNEAKY on the legs; strike — the Bandai punches on the arms (on the walking base: the
-# paper strikes from a jumping base, which this project has not trained). Where the composed
-# motion is on the arms, the residual also moves the legs for the goal (--goal-parts lower_body):
-# a residual on the arms alone cannot walk to a target or a box (measured: location 4 %).
+# Motions composed (B), masks and goal parts of each task: goal_cell_args in scripts/grid_lib.sh.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 source scripts/grid_lib.sh
@@ -32,26 +26,6 @@ EVAL_ENVS=${EVAL_ENVS:-16}
 DATA=${MASKADAPT_DATA_DIR:-../shared/data}/motions
 CELLS=${CELLS:-"location_ours location_cml location_adaptnet heading_ours heading_cml heading_adaptnet strike_ours strike_cml strike_adaptnet"}
 
-motion_for() {
-  case "$1" in
-    location) echo "$DATA/styles/swim.bvh" ;;
-    heading) echo "$DATA/styles/SNEAKY.bvh" ;;
-    strike) echo "$DATA/bandai/actions/dataset-1_punch_normal_001.bvh $DATA/bandai/actions/dataset-1_punch_normal_002.bvh" ;;
-  esac
-}
-mask_for() {
-  case "$1" in
-    heading) echo lower_body ;;
-    *) echo arms ;;
-  esac
-}
-goal_parts_for() {
-  case "$1" in
-    heading) ;;
-    *) echo "--goal-parts lower_body" ;;
-  esac
-}
-
 for cell in $CELLS; do
   task=${cell%_*}
   method=${cell#*_}
@@ -61,7 +35,7 @@ for cell in $CELLS; do
   echo "== $cell: $(date -u +%H:%M:%S) training to $ITERATIONS iterations in $dir"
   # shellcheck disable=SC2046
   train_or_resume "$dir" "$ITERATIONS" --task "$task" --method "$method" --base "$BASE" \
-    --new-motion $(motion_for "$task") --masks "$(mask_for "$task")" $(goal_parts_for "$task") \
+    $(goal_cell_args "$task" "$DATA") \
     --threads "$THREADS" --seed "$SEED"
   "$BIN" eval-residual "$dir/checkpoint.bin" --task "$task" --envs "$EVAL_ENVS" --trials "$TRIALS" --out "$result"
 done
