@@ -2,7 +2,7 @@
 # Reproduces docs/results.md: the stage-1 ablation (AMP, masking without MI, λ_MI 0.1 and 1.0),
 # its evaluation, and the stage-2 composition and tracking comparisons.
 #
-#   MINUTES=30 STAGE2_MINUTES=10 scripts/reproduce_results.sh [stage1|stage2|all]
+#   MINUTES=30 STAGE2_MINUTES=10 scripts/reproduce_results.sh [stage1|stage2|recipe|all]
 #
 # Needs build/bin/maskadapt (scripts/setup.sh) and the CMU clips (MASKADAPT_DATA_DIR, default
 # ../shared/data). Runs go to runs/; every process is single-threaded (--threads 1) so that several
@@ -78,10 +78,33 @@ stage2() {
     --bvh runs/track_ours/play.bvh --rollout runs/track_ours/play.json
 }
 
+# docs/results.md, "Stage 2 recipe" (issue 39): every A/B run of the table, two at a time, 600
+# iterations each (the location variant continued to 1,500 iterations last).
+recipe() {
+  local ab=scripts/stage2_ab.sh
+  (VARIANT=paper TASK=location SEED=1 $ab; VARIANT=paper TASK=location SEED=2 $ab
+   VARIANT=hold10 TASK=location $ab --noise-hold-steps 10
+   VARIANT=goalonly CELL_ARGS="--masks lower_body" TASK=location $ab
+   VARIANT=face05 TASK=location $ab --location-facing-weight 0.5
+   VARIANT=paper TASK=heading $ab; VARIANT=w19 TASK=heading $ab --objective-weights 0.1 0.9) &
+  (VARIANT=w19 TASK=location $ab --objective-weights 0.1 0.9
+   for seed in 1 2; do
+     VARIANT=face05w19 TASK=location SEED=$seed $ab --location-facing-weight 0.5 --objective-weights 0.1 0.9
+   done
+   VARIANT=paper TASK=strike SEED=1 $ab; VARIANT=paper TASK=strike SEED=2 $ab
+   VARIANT=appr04 TASK=strike $ab --strike-approach-weight 0.4
+   for seed in 1 2; do
+     VARIANT=appr04w19 TASK=strike SEED=$seed $ab --strike-approach-weight 0.4 --objective-weights 0.1 0.9
+   done) &
+  wait
+  VARIANT=face05w19 TASK=location SEED=1 ITERATIONS=1500 $ab
+}
+
 case "$what" in
   stage1) stage1 ;;
   stage2) stage2 ;;
-  all) stage1; stage2 ;;
-  *) echo "usage: $0 [stage1|stage2|all]" >&2; exit 2 ;;
+  recipe) recipe ;;
+  all) stage1; stage2; recipe ;;
+  *) echo "usage: $0 [stage1|stage2|recipe|all]" >&2; exit 2 ;;
 esac
 echo "reproduce_results: outputs under runs/"

@@ -10,9 +10,12 @@
 #include <maskadapt/tracking/goals.hpp>
 #include <maskadapt/train/residual_trainer.hpp>
 
+#include <gtest/gtest.h>
+
 #include <cmath>
 #include <memory>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace maskadapt::testing::stage2 {
@@ -166,6 +169,43 @@ ResidualSetup<Sim> tracking_setup(const Data& d, const Sim& sim, const tasks::Tr
 template <class Sim>
 ResidualSetup<Sim> tracking_setup(const Data& d, const Sim& sim) {
   return tracking_setup(d, sim, tiny_tracking_config(d));
+}
+
+/// Runs `f` and expects it to throw an Error whose message names `field` (what a bad value of a
+/// config field or flag must produce); `what` says which value was tried.
+template <class F>
+void expect_error_naming(F&& f, const std::string& field, const std::string& what) {
+  try {
+    f();
+    ADD_FAILURE() << what << " was accepted";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find(field), std::string::npos) << what << ": " << e.what();
+  }
+}
+
+/// A run trained straight for `total` iterations, and the same run saved after `split`, loaded
+/// into a fresh trainer and continued to `total` (`make(sim)` builds a trainer on `sim`).
+template <class Trainer>
+struct ResumedRun {
+  std::vector<std::unique_ptr<TinyWalkerSim>> sims;  // (outlive the trainers that hold them)
+  std::unique_ptr<Trainer> straight, resumed;
+  std::vector<IterationStats> straight_stats, resumed_stats;  ///< resumed: iterations split+1 … total
+  Checkpoint at_split;
+};
+template <class Make>
+auto run_and_resume(Make make, int split = 2, int total = 4, Index envs = 4) {
+  using Trainer = typename decltype(make(std::declval<TinyWalkerSim&>()))::element_type;
+  ResumedRun<Trainer> r;
+  for (int i = 0; i < 3; ++i) r.sims.push_back(std::make_unique<TinyWalkerSim>(envs));
+  r.straight = make(*r.sims[0]);
+  for (int i = 0; i < total; ++i) r.straight_stats.push_back(r.straight->iterate());
+  auto first = make(*r.sims[1]);
+  for (int i = 0; i < split; ++i) first->iterate();
+  first->save(r.at_split);
+  r.resumed = make(*r.sims[2]);
+  r.resumed->load(r.at_split);
+  for (int i = split; i < total; ++i) r.resumed_stats.push_back(r.resumed->iterate());
+  return r;
 }
 
 }  // namespace maskadapt::testing::stage2

@@ -143,22 +143,13 @@ TEST(ResidualTrainer, ResumeContinuesBitExactly) {
       return std::make_unique<ResidualTrainer<TinyWalkerSim>>(sim, upright(sim.skeleton()), tiny_base(sim.skeleton()),
                                                               std::move(setup), cfg, nullptr, fall(sim.skeleton()));
     };
-    TinyWalkerSim sim_a(4), sim_b(4);
-    auto straight = make(sim_a);
-    std::vector<IterationStats> ref;
-    for (int i = 0; i < 4; ++i) ref.push_back(straight->iterate());
-
-    auto first = make(sim_b);
-    first->iterate();
-    first->iterate();
-    Checkpoint ck;
-    first->save(ck);
-    TinyWalkerSim sim_c(4);
-    auto resumed = make(sim_c);
-    resumed->load(ck);
-    EXPECT_EQ(resumed->iteration(), 2);
+    const auto run = run_and_resume(make);
+    const auto& ref = run.straight_stats;
+    const auto& straight = run.straight;
+    const auto& resumed = run.resumed;
+    EXPECT_EQ(resumed->iteration(), 4);
     for (int i = 2; i < 4; ++i) {
-      const IterationStats st = resumed->iterate();
+      const IterationStats& st = run.resumed_stats[static_cast<std::size_t>(i - 2)];
       EXPECT_EQ(st.iteration, ref[static_cast<std::size_t>(i)].iteration) << task;
       EXPECT_EQ(st.policy_loss, ref[static_cast<std::size_t>(i)].policy_loss) << task << " iteration " << i + 1;
       EXPECT_EQ(st.disc_loss, ref[static_cast<std::size_t>(i)].disc_loss) << task << " iteration " << i + 1;
@@ -891,35 +882,22 @@ TEST(ResidualTrainer, HeldNoiseKeepsOneDeviationForKStepsAndResumesMidHold) {
   EXPECT_GT(held, 0);
 
   // resumed after 2 iterations of 8 steps: 16 = 5·3 + 1, every env mid-hold unless an episode ended
-  TinyWalkerSim sim_a(4), sim_b(4), sim_c(4);
-  auto straight = make(sim_a);
-  std::vector<IterationStats> ref;
-  for (int i = 0; i < 4; ++i) ref.push_back(straight->iterate());
-  auto first = make(sim_b);
-  first->iterate();
-  first->iterate();
-  Checkpoint ck;
-  first->save(ck);
-  ASSERT_TRUE(ck.contains("state/noise_hold/deviation"));
-  auto resumed = make(sim_c);
-  resumed->load(ck);
+  auto resumed_run = run_and_resume(make);
+  ASSERT_TRUE(resumed_run.at_split.contains("state/noise_hold/deviation"));
   for (int i = 2; i < 4; ++i) {
-    const IterationStats st = resumed->iterate();
-    EXPECT_EQ(st.policy_loss, ref[static_cast<std::size_t>(i)].policy_loss) << "iteration " << i + 1;
-    EXPECT_EQ(st.extra, ref[static_cast<std::size_t>(i)].extra) << "iteration " << i + 1;
+    const IterationStats& st = resumed_run.resumed_stats[static_cast<std::size_t>(i - 2)];
+    EXPECT_EQ(st.policy_loss, resumed_run.straight_stats[static_cast<std::size_t>(i)].policy_loss) << "iteration " << i + 1;
+    EXPECT_EQ(st.extra, resumed_run.straight_stats[static_cast<std::size_t>(i)].extra) << "iteration " << i + 1;
   }
-  EXPECT_TRUE(same_bits(VectorXf(resumed->policy().residual().mean_net.params()), VectorXf(straight->policy().residual().mean_net.params())));
+  EXPECT_TRUE(same_bits(VectorXf(resumed_run.resumed->policy().residual().mean_net.params()),
+                        VectorXf(resumed_run.straight->policy().residual().mean_net.params())));
 
   // a checkpoint without the held noise is refused by a run that holds noise, naming the section
+  Checkpoint ck = resumed_run.at_split;
   ck.erase("state/noise_hold/deviation");
   TinyWalkerSim sim_d(4);
   auto broken = make(sim_d);
-  try {
-    broken->load(ck);
-    ADD_FAILURE() << "a checkpoint without state/noise_hold/deviation was accepted";
-  } catch (const Error& err) {
-    EXPECT_NE(std::string(err.what()).find("noise_hold"), std::string::npos) << err.what();
-  }
+  expect_error_naming([&] { broken->load(ck); }, "noise_hold", "a checkpoint without state/noise_hold/deviation");
 }
 
 TEST(ResidualConfig, KeepsTheNoiseHoldAndObjectiveWeightsThroughJsonAndRejectsBadValues) {
@@ -935,12 +913,7 @@ TEST(ResidualConfig, KeepsTheNoiseHoldAndObjectiveWeightsThroughJsonAndRejectsBa
   for (const int bad : {0, -3}) {
     ResidualTrainConfig b = c;
     b.noise_hold_steps = bad;
-    try {
-      b.validate();
-      ADD_FAILURE() << bad << " accepted";
-    } catch (const Error& err) {
-      EXPECT_NE(std::string(err.what()).find("noise_hold_steps"), std::string::npos) << err.what();
-    }
+    expect_error_naming([&] { b.validate(); }, "noise_hold_steps", "noise_hold_steps " + std::to_string(bad));
   }
   ResidualTrainConfig f = c;  // the facing shaping: kept, absent = the paper's reward, location only
   f.location_facing_weight = 0.3;
@@ -950,12 +923,7 @@ TEST(ResidualConfig, KeepsTheNoiseHoldAndObjectiveWeightsThroughJsonAndRejectsBa
   EXPECT_THROW(f.validate(), Error);
   f.location_facing_weight = 0.3;
   f.task = "heading";
-  try {
-    f.validate();
-    ADD_FAILURE() << "a facing weight on the heading task was accepted";
-  } catch (const Error& err) {
-    EXPECT_NE(std::string(err.what()).find("location_facing_weight"), std::string::npos) << err.what();
-  }
+  expect_error_naming([&] { f.validate(); }, "location_facing_weight", "a facing weight on the heading task");
   ResidualTrainConfig sa = c;  // the strike's approach shaping: kept, absent = the paper's, strike only
   sa.task = "strike";
   sa.strike_approach_weight = 0.4;
