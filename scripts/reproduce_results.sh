@@ -91,6 +91,8 @@ recipe() {
    for seed in 1 2; do
      VARIANT=face05w19 TASK=location SEED=$seed $ab --location-facing-weight 0.5 --objective-weights 0.1 0.9
      VARIANT=face05w37 TASK=location SEED=$seed $ab --location-facing-weight 0.5 --objective-weights 0.3 0.7
+     VARIANT=face05w19std15 TASK=location SEED=$seed $ab --location-facing-weight 0.5 --objective-weights 0.1 0.9 \
+       --residual-std 0.15
    done
    VARIANT=paper TASK=strike SEED=1 $ab; VARIANT=paper TASK=strike SEED=2 $ab
    VARIANT=appr04 TASK=strike $ab --strike-approach-weight 0.4
