@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
-# Stage-2 recipe A/B runs (issue 39): one variant of a Table 3 cell (task × method, the composed
-# motion and masks of scripts/table3_grid.sh) trained to a fixed sample budget, then evaluated with
+# Stage-2 recipe A/B runs (issue 39): one variant of a Table 3 cell (task × method; the composed
+# motion and masks: goal_cell_args in scripts/grid_lib.sh) trained to a fixed sample budget, then evaluated with
 # the policy mean over >= TRIALS trials on an evaluation seed no training run uses.
 #
 #   VARIANT=hold10 TASK=location METHOD=ours SEED=1 ITERATIONS=600 THREADS=1 \

@@ -201,6 +201,31 @@ inline Vec3 facing_direction(const Quat& root_rot) {
   return n > 1e-9 ? Vec3(f / n) : Vec3(Vec3::UnitX());
 }
 
+/// The horizontal offset from a root position to a target: its length (m) and unit direction
+/// (meaningful only when the distance is > 0).
+struct GroundBearing {
+  double distance = 0;
+  Vec3 direction = Vec3::Zero();
+};
+inline GroundBearing ground_bearing(const Vec3& root_pos, const Vec3& target) {
+  Vec3 to = target - root_pos;
+  to.z() = 0;
+  const double dist = to.norm();
+  return {dist, dist > 0 ? Vec3(to / dist) : Vec3(Vec3::Zero())};
+}
+
+/// exp(−k·(v* − d·v)²): how well the horizontal part of `root_vel` moves along the unit ground
+/// direction d at speed v* (1 exactly at v*, the location task's term and the strike approach's).
+inline double speed_toward_reward(const Vec3& d, const Vec3& root_vel, double speed, double k) {
+  const double err = speed - d.dot(Vec3(root_vel.x(), root_vel.y(), 0.0));
+  return std::exp(-k * err * err);
+}
+
+/// (1 + f·d)/2 for the root's facing f and a unit ground direction d: 0 facing away, 1 facing it.
+inline double facing_toward_reward(const Quat& root_rot, const Vec3& d) {
+  return 0.5 * (1 + facing_direction(root_rot).dot(d));
+}
+
 /// A horizontal world vector in the root's heading frame (x forward, y left): 2 numbers.
 inline Eigen::Vector2d to_heading_frame(const Quat& root_rot, const Vec3& v) {
   const Vec3 f = facing_direction(root_rot);

@@ -51,27 +51,19 @@ struct LocationConfig {
 
 /// The reward of one step (see the file comment). Positions and velocities in world metres.
 inline double location_reward(const Vec3& root_pos, const Vec3& root_vel, const Vec3& target, const LocationConfig& c) {
-  Vec3 to = target - root_pos;
-  to.z() = 0;
-  const double dist = to.norm();
-  if (dist <= c.radius) return 1.0;
-  const Vec3 d = to / dist;
-  const double err = c.speed - d.dot(Vec3(root_vel.x(), root_vel.y(), 0.0));
-  return std::exp(-c.velocity_scale * err * err);
+  const GroundBearing to = ground_bearing(root_pos, target);
+  if (to.distance <= c.radius) return 1.0;
+  return speed_toward_reward(to.direction, root_vel, c.speed, c.velocity_scale);
 }
 
 /// The reward with the facing shaping term (see the file comment); `root_rot` gives the facing.
 /// facing_weight = 0 is exactly the paper's reward above.
 inline double location_reward(const Vec3& root_pos, const Quat& root_rot, const Vec3& root_vel, const Vec3& target,
                               const LocationConfig& c) {
-  const double paper = location_reward(root_pos, root_vel, target, c);
-  if (c.facing_weight == 0) return paper;
-  Vec3 to = target - root_pos;
-  to.z() = 0;
-  const double dist = to.norm();
-  if (dist <= c.radius) return 1.0;
-  const double facing = facing_direction(root_rot).dot(to / dist);
-  return (1 - c.facing_weight) * paper + c.facing_weight * 0.5 * (1 + facing);
+  const GroundBearing to = ground_bearing(root_pos, target);
+  if (to.distance <= c.radius) return 1.0;
+  return (1 - c.facing_weight) * speed_toward_reward(to.direction, root_vel, c.speed, c.velocity_scale) +
+         c.facing_weight * facing_toward_reward(root_rot, to.direction);
 }
 
 /// g ∈ R⁴ = [d in the heading frame (2), v*, distance].

@@ -82,13 +82,10 @@ inline double strike_reward(const Quat& box_rot) { return 1.0 - box_uprightness(
 /// else half velocity toward the box, half facing it. World positions and velocities.
 inline double strike_approach(const Vec3& root_pos, const Quat& root_rot, const Vec3& root_vel, const Vec3& box_pos,
                               bool tilted, const StrikeConfig& c) {
-  Vec3 to = box_pos - root_pos;
-  to.z() = 0;
-  const double dist = to.norm();
-  if (tilted || dist <= c.reach) return 1.0;
-  const Vec3 d = to / dist;
-  const double err = c.approach_speed - d.dot(Vec3(root_vel.x(), root_vel.y(), 0.0));
-  return 0.5 * std::exp(-4.0 * err * err) + 0.5 * 0.5 * (1 + facing_direction(root_rot).dot(d));
+  const GroundBearing to = ground_bearing(root_pos, box_pos);
+  if (tilted || to.distance <= c.reach) return 1.0;
+  return 0.5 * speed_toward_reward(to.direction, root_vel, c.approach_speed, 4.0) +
+         0.5 * facing_toward_reward(root_rot, to.direction);
 }
 
 /// The shaped reward (1 − w)·(1 − u_world·u_box) + w·approach; w = 0 is strike_reward.
@@ -155,13 +152,9 @@ class StrikeTask {
     const RigidState& box = sim.object_state(u, c_.object);
     if (first_[u] == FirstContact::None) first_[u] = classify_contact(sim.object_contacts(u, c_.object));
     if (box_uprightness(box.rot) < c_.success_cos) tilted_[u] = 1;
-    if (c_.approach_weight == 0) {
-      last_reward_[u] = static_cast<float>(strike_reward(box.rot));
-    } else {
-      const BodyStates& b = sim.body_states(u);
-      const double approach = strike_approach(b.pos.col(0), b.rot[0], b.lin_vel.col(0), box.pos, tilted_[u] != 0, c_);
-      last_reward_[u] = static_cast<float>(strike_reward(box.rot, approach, c_));
-    }
+    const BodyStates& b = sim.body_states(u);
+    const double approach = strike_approach(b.pos.col(0), b.rot[0], b.lin_vel.col(0), box.pos, tilted_[u] != 0, c_);
+    last_reward_[u] = static_cast<float>(strike_reward(box.rot, approach, c_));  // (w = 0: exactly 1 − u·u_box)
     if (c_.end_on_foreign_contact && first_[u] == FirstContact::Foreign) {
       trials_.add(false);
       return {last_reward_[u], true};

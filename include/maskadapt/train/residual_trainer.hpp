@@ -151,6 +151,10 @@ class ResidualTrainer {
     spec.num_objectives = K_;
     spec.amp_dim = W;
     buf_.resize(spec);
+    if (cfg_.noise_hold_steps > 1) {  // (every env draws afresh at its first step)
+      held_noise_.setZero(policy_.action_dim(), N);
+      hold_left_.assign(static_cast<std::size_t>(N), 0);
+    }
     if (distributed()) {  // this rank's envs restart from the streams they have in one process
       join_ranks(*comm_, N, static_cast<std::int64_t>(parameter_count()), cfg_.rl.run.seed, cfg_.rl.env.num_envs);
       restart_env_streams(task_, cfg_.rl.run.seed, env_offset_, /*keep_states=*/false);
@@ -298,8 +302,6 @@ class ResidualTrainer {
     save_task_state(c, "state/task/", task_);
     if (setup_.goal) setup_.goal.save(c, "state/goal_task/");
     if (cfg_.noise_hold_steps > 1) {  // (held deviations: A × N, steps each env still holds)
-      auto& self = const_cast<ResidualTrainer&>(*this);
-      self.size_noise_hold(policy_.action_dim(), N);
       VectorX<std::int64_t> left(N);
       for (Index e = 0; e < N; ++e) left[e] = hold_left_[static_cast<std::size_t>(e)];
       c.put("state/noise_hold/deviation", held_noise_);
@@ -324,9 +326,7 @@ class ResidualTrainer {
     load_task_state(c, "state/task/", task_);
     if (setup_.goal) setup_.goal.load(c, "state/goal_task/");
     if (cfg_.noise_hold_steps > 1) {
-      const Index A = policy_.action_dim();
-      size_noise_hold(A, N);
-      held_noise_ = c.get_matrix<float>("state/noise_hold/deviation", A, N);
+      held_noise_ = c.get_matrix<float>("state/noise_hold/deviation", policy_.action_dim(), N);
       const auto left = c.get_vector<std::int64_t>("state/noise_hold/steps_left", N);
       for (Index e = 0; e < N; ++e) hold_left_[static_cast<std::size_t>(e)] = static_cast<int>(left[e]);
     }
@@ -452,7 +452,6 @@ class ResidualTrainer {
     const int k = cfg_.noise_hold_steps;
     if (k <= 1) return;
     const Index N = actions_.cols();
-    size_noise_hold(actions_.rows(), N);
     bool any_held = false;
     for (Index e = 0; e < N; ++e) {
       int& left = hold_left_[static_cast<std::size_t>(e)];
@@ -471,12 +470,7 @@ class ResidualTrainer {
     }
   }
   void restart_noise_hold(Index e) {
-    if (cfg_.noise_hold_steps > 1 && !hold_left_.empty()) hold_left_[static_cast<std::size_t>(e)] = 0;
-  }
-  void size_noise_hold(Index A, Index N) {
-    if (held_noise_.rows() == A && held_noise_.cols() == N) return;
-    held_noise_.setZero(A, N);
-    hold_left_.assign(static_cast<std::size_t>(N), 0);
+    if (cfg_.noise_hold_steps > 1) hold_left_[static_cast<std::size_t>(e)] = 0;
   }
 
   // ---- 2. rewards -------------------------------------------------------------------------
