@@ -1,0 +1,255 @@
+// The native reference for the live viewer (tools/viewer/src/live/): what the page needs to run a
+// shipped base policy in the browser, and recorded inputs/outputs of the C++ that the page's
+// JavaScript must reproduce.
+//
+//   maskadapt_viewer_live_reference MODELS_DIR OUT_DIR
+//
+// writes
+//   OUT_DIR/character_humanoid.json, OUT_DIR/character_g1.json — what the page needs of each
+//       character besides its MJCF (assets/<name>.xml): MuJoCo body and joint names, the body
+//       part of every body, physics step and substeps, the bodies that may touch the ground, the
+//       head, and the start poses the page offers (KinematicState: root position, root rotation
+//       x,y,z,w, joint angles, world root velocities, joint rates);
+//   OUT_DIR/fixture_<model>.json — recorded steps of the native loop (examples/usage/
+//       readme_example.cpp's loop, the one `maskadapt play --deterministic` runs): the body
+//       states read out of MuJoCo 2.2.2, the mask, the observation s, the policy input [s̄ ; m],
+//       the normalised input, the mean action and the PD targets, each as the C++ computed them;
+//   OUT_DIR/native_<model>.json — `train::play_base_policy` (what `maskadapt play` runs) from
+//       each start pose the page offers, 10 s, deterministic, per mask: distance walked in the
+//       ground plane and falls. The browser's figures are compared with these (docs/viewer.md).
+//
+// Models: mask_mi_walk_bandai, amp_walk_bandai (humanoid), g1_mask_mi_walk_bandai,
+// g1_amp_walk_bandai (G1). Everything is deterministic (mean actions, fixed starts).
+#include <maskadapt/humanoid/observation.hpp>
+#include <maskadapt/humanoid/synthetic.hpp>
+#include <maskadapt/mask/apply.hpp>
+#include <maskadapt/motion/library.hpp>
+#include <maskadapt/sim/mujoco/humanoid_sim.hpp>
+#include <maskadapt/train/base_policy.hpp>
+#include <maskadapt/train/play.hpp>
+
+#include <nlohmann/json.hpp>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <string>
+#include <vector>
+
+using namespace maskadapt;
+using nlohmann::json;
+
+namespace {
+
+json vec(const auto& v) {
+  json a = json::array();
+  for (Index i = 0; i < v.size(); ++i) a.push_back(static_cast<double>(v[i]));
+  return a;
+}
+json quat_xyzw(const Quat& q) { return json::array({q.x(), q.y(), q.z(), q.w()}); }
+
+json pose_json(const KinematicState& s, const std::string& label) {
+  return {{"label", label},
+          {"root_pos", vec(s.root_pos)},
+          {"root_rot_xyzw", quat_xyzw(s.root_rot)},
+          {"q", vec(s.q)},
+          {"root_lin_vel", vec(s.root_lin_vel)},
+          {"root_ang_vel", vec(s.root_ang_vel)},
+          {"qd", vec(s.qd)}};
+}
+
+json body_states_json(const BodyStates& b) {
+  json pos = json::array(), rot = json::array(), lin = json::array(), ang = json::array();
+  for (int i = 0; i < b.num_bodies(); ++i) {
+    for (int k = 0; k < 3; ++k) {
+      pos.push_back(b.pos(k, i));
+      lin.push_back(b.lin_vel(k, i));
+      ang.push_back(b.ang_vel(k, i));
+    }
+    for (double c : {b.rot[static_cast<std::size_t>(i)].x(), b.rot[static_cast<std::size_t>(i)].y(),
+                     b.rot[static_cast<std::size_t>(i)].z(), b.rot[static_cast<std::size_t>(i)].w()})
+      rot.push_back(c);
+  }
+  return {{"pos", pos}, {"rot_xyzw", rot}, {"lin_vel", lin}, {"ang_vel", ang}};
+}
+
+void write_json(const std::filesystem::path& p, const json& j, int indent = 1) {
+  std::ofstream f(p);
+  if (!f) throw Error("cannot open for writing", {p.string(), std::nullopt, {}});
+  f << j.dump(indent) << "\n";
+  if (!f) throw Error("write failed", {p.string(), std::nullopt, {}});
+  std::cout << "live_reference: wrote " << p.string() << "\n";
+}
+
+/// Start poses the page offers for a character (label, pose).
+std::vector<std::pair<std::string, KinematicState>> start_poses(const MujocoCharacter& ch) {
+  std::vector<std::pair<std::string, KinematicState>> out;
+  MotionLibrary walk(ch.skeleton);
+  MotionClip clip = synthetic_walk();
+  if (ch.from_humanoid) clip = ch.from_humanoid(clip);
+  walk.add(clip);
+  for (double t : {0.1, 0.3, 0.5, 0.7, 0.9}) {
+    char label[64];
+    std::snprintf(label, sizeof label, "synthetic walk, t = %.1f s", t);
+    out.emplace_back(label, walk.state(0, t));
+  }
+  out.emplace_back("standing", ch.standing);
+  return out;
+}
+
+json character_json(const MujocoCharacter& ch, const std::string& mjcf_file, double termination_height) {
+  // The drawing: a one-frame viewer rollout (eval/rollout_file.hpp) of the first start pose; the
+  // page moves its bodies to the simulated poses.
+  eval::Rollout drawing = eval::make_rollout(ch);
+  {
+    MujocoHumanoidSim sim(1, 1, ch);
+    sim.reset(0, start_poses(ch).front().second);
+    eval::add_frame(drawing, sim.body_states(0), PartMask::none(), sim.contacts(0));
+  }
+  drawing.metadata.command = "live simulation";
+  json bodies = json::array();
+  for (int i = 0; i < ch.skeleton.num_bodies(); ++i)
+    bodies.push_back({{"name", ch.skeleton.names[static_cast<std::size_t>(i)]},
+                      {"part", std::string(part_name(ch.skeleton.parts[static_cast<std::size_t>(i)]))},
+                      {"parent", ch.skeleton.parents[static_cast<std::size_t>(i)]}});
+  json starts = json::array();
+  for (const auto& [label, pose] : start_poses(ch)) starts.push_back(pose_json(pose, label));
+  return {{"format", "maskadapt-live-character"},
+          {"version", 1},
+          {"name", ch.name},
+          {"mjcf", mjcf_file},
+          {"bodies", bodies},
+          {"joint_names", ch.joint_names},
+          {"physics_dt", ch.physics_dt},
+          {"substeps", ch.substeps},
+          {"ground_contacts", ch.ground_contacts},
+          {"head", ch.head},
+          {"termination_height", termination_height},
+          {"part_names", json::array({"trunk", "left_arm", "right_arm", "left_leg", "right_leg"})},
+          {"starts", starts},
+          {"drawing", eval::to_json(drawing)}};
+}
+
+train::LoadedBasePolicy load(const std::string& path, const MujocoCharacter& ch) {
+  const Index obs_dim = observation_dim(ch.skeleton);
+  return train::load_base_policy(load_checkpoint(path),
+                                 {obs_dim, policy_input_dim(obs_dim), ch.skeleton.num_dofs(), obs_dim * kAmpWindowFrames}, path);
+}
+
+/// Recorded steps of the native loop: 60 control steps from the first start, the mask changing
+/// every 10 steps; steps 0, 7, 15, 26, 38, 52 recorded.
+json fixture_json(const std::string& model_path, const std::string& model_name, const MujocoCharacter& ch) {
+  const train::LoadedBasePolicy base = load(model_path, ch);
+  const auto& actor = base.policy.ac.actor;
+  MujocoHumanoidSim sim(1, 1, ch);
+  const Skeleton& skel = sim.skeleton();
+  const Index obs_dim = observation_dim(skel);
+  const auto starts = start_poses(ch);
+  sim.reset(0, starts.front().second);
+  const PartElements parts(observation_parts(skel));
+  const std::vector<PartMask> schedule = {PartMask::none(),
+                                          PartMask::parse("left_leg,right_leg"),
+                                          PartMask::parse("arms"),
+                                          PartMask::parse("trunk,left_arm"),
+                                          PartMask::parse("right_leg"),
+                                          PartMask::parse("trunk,left_arm,right_leg")};
+  const std::vector<int> recorded = {0, 7, 15, 26, 38, 52};
+  MatrixXf obs(obs_dim, 1), input(policy_input_dim(obs_dim), 1), mean(skel.num_dofs(), 1), targets(skel.num_dofs(), 1),
+      normalised;
+  nn::InferenceWorkspace<float> ws;
+  json steps = json::array();
+  for (int step = 0; step < 60; ++step) {
+    const std::vector<PartMask> masks = {schedule[static_cast<std::size_t>(step / 10)]};
+    compute_observation(skel, sim.body_states(0), obs.col(0));
+    build_policy_input<float>(parts, obs, masks, input);
+    actor.mean(input, mean, ws, normalised);
+    base.policy.actions.to_targets(mean, targets);
+    if (std::find(recorded.begin(), recorded.end(), step) != recorded.end())
+      steps.push_back({{"step", step},
+                       {"mask_bits", masks[0].bits},
+                       {"mask", masks[0].to_string()},
+                       {"body_states", body_states_json(sim.body_states(0))},
+                       {"observation", vec(obs.col(0))},
+                       {"policy_input", vec(input.col(0))},
+                       {"normalised_input", vec(normalised.col(0))},
+                       {"mean_action", vec(mean.col(0))},
+                       {"targets", vec(targets.col(0))}});
+    sim.step(targets);
+  }
+  return {{"format", "maskadapt-live-fixture"},
+          {"model", model_name},
+          {"character", ch.name},
+          {"start", starts.front().first},
+          {"note", "written by tests/viewer/live_reference.cpp from the C++ of include/maskadapt on MuJoCo " +
+                       std::string(mj_versionString())},
+          {"steps", steps}};
+}
+
+/// play_base_policy (what `maskadapt play --deterministic` runs) from every start, per mask.
+json native_json(const std::string& model_path, const std::string& model_name, const MujocoCharacter& ch) {
+  const train::LoadedBasePolicy base = load(model_path, ch);
+  json runs = json::array();
+  for (const auto& [label, pose] : start_poses(ch)) {
+    for (const char* mask_text : {"none", "left_leg,right_leg", "arms", "left_leg", "trunk"}) {
+      MujocoHumanoidSim sim(1, 1, ch);
+      train::PlayOptions opt;
+      opt.seconds = 10.0;
+      opt.seed = 1;
+      opt.deterministic = true;
+      opt.masks = MaskSampler::fixed(PartMask::parse(mask_text, "mask"));
+      const KinematicState start = pose;
+      tasks::ResetSampler reset = [start](Rng&) { return tasks::ResetSample{start, {}}; };
+      const train::PlayResult r =
+          train::play_base_policy(sim, base.policy, reset, opt, eval::make_rollout(sim.character()),
+                                  ch.fall_criteria(base.config.env.termination_height), base.config.env.termination_height);
+      const Vec3 d = r.root.col(r.root.cols() - 1) - r.root.col(0);
+      const double distance = std::hypot(d.x(), d.y());
+      json run = {{"start", label}, {"mask", mask_text}, {"distance_m", distance}, {"falls", r.fall_times.size()},
+                  {"first_fall_s", r.fall_times.empty() ? json(nullptr) : json(r.fall_times.front())}};
+      std::cout << "native " << model_name << " | " << label << " | mask " << mask_text << ": " << distance << " m, "
+                << r.fall_times.size() << " fall(s)"
+                << (r.fall_times.empty() ? std::string() : ", first at " + std::to_string(r.fall_times.front()) + " s")
+                << "\n";
+      runs.push_back(run);
+    }
+  }
+  return {{"format", "maskadapt-live-native"},
+          {"model", model_name},
+          {"character", ch.name},
+          {"mujoco", mj_versionString()},
+          {"seconds", 10.0},
+          {"actions", "mean (deterministic)"},
+          {"runs", runs}};
+}
+
+}  // namespace
+
+int main(int argc, char** argv) try {
+  if (argc < 3) {
+    std::cerr << "usage: maskadapt_viewer_live_reference MODELS_DIR OUT_DIR [--no-native]\n";
+    return 2;
+  }
+  const std::filesystem::path models = argv[1], out = argv[2];
+  const bool native = !(argc > 3 && std::string(argv[3]) == "--no-native");
+  std::filesystem::create_directories(out);
+  const MujocoCharacter& humanoid = mujoco_character("humanoid");
+  const MujocoCharacter& g1 = mujoco_character("g1");
+  const double th_h = load((models / "mask_mi_walk_bandai.bin").string(), humanoid).config.env.termination_height;
+  const double th_g = load((models / "g1_mask_mi_walk_bandai.bin").string(), g1).config.env.termination_height;
+  write_json(out / "character_humanoid.json", character_json(humanoid, "humanoid.xml", th_h));
+  write_json(out / "character_g1.json", character_json(g1, "g1.xml", th_g));
+  const std::vector<std::pair<std::string, const MujocoCharacter*>> list = {{"mask_mi_walk_bandai", &humanoid},
+                                                                            {"amp_walk_bandai", &humanoid},
+                                                                            {"g1_mask_mi_walk_bandai", &g1},
+                                                                            {"g1_amp_walk_bandai", &g1}};
+  for (const auto& [name, ch] : list) {
+    const std::string path = (models / (name + ".bin")).string();
+    write_json(out / ("fixture_" + name + ".json"), fixture_json(path, name, *ch), -1);  // (compact: numbers)
+    if (native) write_json(out / ("native_" + name + ".json"), native_json(path, name, *ch));
+  }
+  return 0;
+} catch (const maskadapt::Error& e) {
+  std::cerr << "live_reference: " << e.what() << "\n";
+  return 1;
+}
