@@ -1,8 +1,11 @@
 #!/usr/bin/env bash
-# Reproduces docs/results.md: the stage-1 ablation (AMP, masking without MI, λ_MI 0.1 and 1.0),
-# its evaluation, and the stage-2 composition and tracking comparisons.
+# Reproduces the results pages. stage1 and stage2 are the 2026-11-23 wave-1 runs, now in
+# docs/history.md: the stage-1 ablation (AMP, masking without MI, λ_MI 0.1 and 1.0), its
+# evaluation, and the short stage-2 composition and tracking comparisons. recipe is
+# docs/results.md's "Stage 2 recipe (issue 39)". table2, table3 and table4 run the grids of
+# docs/results.md's Tables 2–4 with the commands written there.
 #
-#   MINUTES=30 STAGE2_MINUTES=10 scripts/reproduce_results.sh [stage1|stage2|recipe|all]
+#   MINUTES=30 STAGE2_MINUTES=10 scripts/reproduce_results.sh [stage1|stage2|recipe|table2|table3|table4|all]
 #
 # Needs build/bin/maskadapt (scripts/setup.sh) and the CMU clips (MASKADAPT_DATA_DIR, default
 # ../shared/data). Runs go to runs/; every process is single-threaded (--threads 1) so that several
@@ -104,11 +107,31 @@ recipe() {
   wait
 }
 
+# docs/results.md, Tables 2–4: the grid scripts, one run at a time, resumable (a cell already
+# evaluated is skipped). Hours of one core each; the BLAS kernel of the machine decides which sample
+# a rerun draws (docs/results.md, "How to read it").
+table2() {
+  BIN=$cli scripts/table2_grid.sh                                              # (a)–(c), seeds 1 2, controls
+  BIN=$cli SEEDS="3 4 5 6 7 8" CELLS="b_ours b_cml" scripts/table2_grid.sh     # (b), seeds 3–8
+  BIN=$cli CELLS="k_ours k_cml" SEEDS="1 2 3" OUT=runs/t2 scripts/table2_grid.sh   # (a) with B cut to the kick
+  BIN=$cli OUT=runs/t2 CELLS="b_ours b_cml" SEEDS="1 2 3 4 5 6 7 8" ITERATIONS=2000 scripts/table2_grid.sh   # (b) at 2 M
+}
+table3() {
+  BIN=$cli scripts/table3_grid.sh                                              # ITERATIONS=1500 THREADS=2 SEED=1
+}
+table4() {
+  BIN=$cli ITERATIONS=3000 SEED=1 scripts/table4_grid.sh
+  BIN=$cli ITERATIONS=3000 SEED=2 CELLS="ours cml" scripts/table4_grid.sh
+}
+
 case "$what" in
   stage1) stage1 ;;
   stage2) stage2 ;;
   recipe) recipe ;;
-  all) stage1; stage2; recipe ;;
-  *) echo "usage: $0 [stage1|stage2|recipe|all]" >&2; exit 2 ;;
+  table2) table2 ;;
+  table3) table3 ;;
+  table4) table4 ;;
+  all) stage1; stage2; recipe; table2; table3; table4 ;;
+  *) echo "usage: $0 [stage1|stage2|recipe|table2|table3|table4|all]" >&2; exit 2 ;;
 esac
 echo "reproduce_results: outputs under runs/"
