@@ -1,9 +1,13 @@
 // npz: our writer → our reader, deflated and zip64 members built here with zlib, corrupt
-// archives, AMASS member checks, clip save/load.
+// archives, AMASS member checks, the xtensor path (members as tensors, AMASS tensors), clip
+// save/load.
+#include <maskadapt/core/tensor.hpp>
 #include <maskadapt/motion/clip.hpp>
 #include <maskadapt/motion/npz.hpp>
 
 #include <gtest/gtest.h>
+#include <xtensor/xbuilder.hpp>
+#include <xtensor/xmanipulation.hpp>
 
 #include <filesystem>
 
@@ -142,10 +146,14 @@ TEST(Npz, AmassMembersAreChecked) {
   const auto m = npz::amass_from_archive(npz::parse(npz::serialise(a)));
   EXPECT_EQ(m.num_frames(), N);
   EXPECT_EQ(m.num_joints(), 52);
-  EXPECT_EQ(m.poses, poses.transpose());
-  EXPECT_EQ(m.trans, trans.transpose());
+  // the tensors keep the file's (frames × ·) layout; the column-major Eigen matrices written
+  // above are (cols × frames) tensors in memory, so their transposed views must match
+  EXPECT_TRUE(m.poses == xt::transpose(tensor_view(poses, std::array<std::size_t, 2>{156, N})));
+  EXPECT_TRUE(m.trans == xt::transpose(tensor_view(trans, std::array<std::size_t, 2>{3, N})));
+  EXPECT_EQ(m.pose(3, 51), Vec3(poses(3, 153), poses(3, 154), poses(3, 155)));
+  EXPECT_EQ(m.translation(4), Vec3(trans.row(4).transpose()));
   EXPECT_EQ(m.fps, 120);
-  EXPECT_EQ(m.betas.size(), 16);
+  EXPECT_EQ(m.betas.size(), 16u);
   EXPECT_EQ(m.gender, "female");
 
   auto missing = a;
@@ -170,6 +178,151 @@ TEST(Npz, AmassMembersAreChecked) {
   nan(1, 1) = std::numeric_limits<double>::quiet_NaN();
   bad["poses"] = npz::matrix(nan);
   EXPECT_THROW(npz::amass_from_archive(bad), Error);
+}
+
+namespace {
+
+/// The message of the Error `f` throws, with its file and field; fails the test if none.
+template <class F>
+Error npz_error_from(F&& f) {
+  try {
+    f();
+  } catch (const Error& e) {
+    return e;
+  }
+  ADD_FAILURE() << "no Error thrown";
+  return Error("none");
+}
+
+bool mentions(const std::string& s, const std::string& part) { return s.find(part) != std::string::npos; }
+
+}  // namespace
+
+// A (2 × 3 × 4) tensor of known values and a (5) vector written to a file and read back through
+// the xtensor path: shapes, every value, the view lying on the parsed buffer, wrong ranks refused.
+TEST(NpzTensor, MembersWrittenAndReadBackAsTensorsKeepShapeAndValues) {
+  Tensor<double, 3> x = Tensor<double, 3>::from_shape({2, 3, 4});
+  for (std::size_t i = 0; i < 2; ++i)
+    for (std::size_t j = 0; j < 3; ++j)
+      for (std::size_t k = 0; k < 4; ++k) x(i, j, k) = 100.0 * i + 10.0 * j + k + 0.5;
+  const Tensor<double, 1> v = xt::arange<double>(-2.0, 3.0);  // (5): -2 -1 0 1 2
+  npz::Archive a;
+  a["x"] = npz::tensor(x);
+  a["v"] = npz::tensor(v);
+  const auto path = (std::filesystem::temp_directory_path() / "maskadapt_npz_tensor_test.npz").string();
+  npz::write(path, a);
+  const npz::Archive back = npz::read(path);
+  std::filesystem::remove(path);
+
+  EXPECT_EQ(back.at("x").shape, (std::vector<std::size_t>{2, 3, 4}));
+  const auto xv = npz::member_view<3>(back.at("x"), "x", path);
+  ASSERT_EQ(xv.shape(0), 2u);
+  ASSERT_EQ(xv.shape(1), 3u);
+  ASSERT_EQ(xv.shape(2), 4u);
+  EXPECT_EQ(xv(1, 2, 3), 123.5);
+  EXPECT_EQ(xv(0, 1, 0), 10.5);
+  EXPECT_TRUE(xv == x);
+  EXPECT_EQ(&xv(0, 0, 0), back.at("x").values.data());  // a view on the parsed values, no copy
+  EXPECT_EQ(&xv(1, 0, 0), back.at("x").values.data() + 12);  // row-major: the last index is contiguous
+  const Tensor<double, 3> owned = npz::as_tensor<3>(back.at("x"), "x", path);
+  EXPECT_TRUE(owned == x);
+  EXPECT_NE(owned.data(), back.at("x").values.data());
+  const auto vv = npz::member_view<1>(back.at("v"), "v", path);
+  ASSERT_EQ(vv.size(), 5u);
+  EXPECT_EQ(vv(0), -2.0);
+  EXPECT_EQ(vv(4), 2.0);
+
+  // wrong rank or a text member: refused naming the file and the member
+  const Error rank = npz_error_from([&] { (void)npz::member_view<2>(back.at("x"), "x", path); });
+  EXPECT_EQ(rank.context().file, path);
+  EXPECT_EQ(rank.context().field, "x");
+  EXPECT_TRUE(mentions(rank.message(), "expected a 2-D array, got 3 dimensions")) << rank.what();
+  npz::Archive t;
+  t["name"] = npz::text("walk");
+  const Error text = npz_error_from([&] { (void)npz::as_tensor<1>(npz::parse(npz::serialise(t)).at("name"), "name", "t.npz"); });
+  EXPECT_EQ(text.context().field, "name");
+  EXPECT_TRUE(mentions(text.message(), "not numeric")) << text.what();
+}
+
+// A Fortran-ordered 3-D member (NumPy's np.asfortranarray): the file holds element (i, j, k) at
+// position i + 2j + 6k; read back, every element sits at its C-order place.
+TEST(NpzTensor, FortranOrderedMembersAreReorderedInEveryDimension) {
+  std::vector<double> column_major(24);
+  for (std::size_t i = 0; i < 2; ++i)
+    for (std::size_t j = 0; j < 3; ++j)
+      for (std::size_t k = 0; k < 4; ++k) column_major[i + 2 * j + 6 * k] = 100.0 * i + 10.0 * j + k;
+  std::string body(24 * 8, '\0');
+  std::memcpy(body.data(), column_major.data(), body.size());
+  const auto a = npz::parse(deflated_zip("f.npy", npy("{'descr': '<f8', 'fortran_order': True, 'shape': (2, 3, 4), }", body)));
+  const auto f = npz::member_view<3>(a.at("f"), "f");
+  for (std::size_t i = 0; i < 2; ++i)
+    for (std::size_t j = 0; j < 3; ++j)
+      for (std::size_t k = 0; k < 4; ++k) EXPECT_EQ(f(i, j, k), 100.0 * i + 10.0 * j + k) << i << j << k;
+  // C order: the flat values count k fastest
+  EXPECT_EQ(a.at("f").values[1], 1.0);
+  EXPECT_EQ(a.at("f").values[4], 10.0);
+  EXPECT_EQ(a.at("f").values[12], 100.0);
+}
+
+// AMASS parameters with known values written to a file and read as tensors in the file's layout;
+// malformed shapes and values refused naming the file and the member.
+TEST(NpzTensor, AmassFileReadsIntoTensorsOfTheFileLayout) {
+  const std::size_t T = 3, C = 66;
+  Tensor<double, 2> poses = Tensor<double, 2>::from_shape({T, C});  // (frames × 3·joints)
+  for (std::size_t t = 0; t < T; ++t)
+    for (std::size_t c = 0; c < C; ++c) poses(t, c) = 0.01 * static_cast<double>(t) + 0.001 * static_cast<double>(c);
+  Tensor<double, 2> trans = {{0.0, 0.1, 0.9}, {0.2, 0.1, 0.91}, {0.4, 0.1, 0.92}};  // (frames × 3)
+  npz::Archive a;
+  a["poses"] = npz::tensor(poses);
+  a["trans"] = npz::tensor(trans);
+  a["mocap_framerate"] = npz::scalar(60.0);
+  a["betas"] = npz::tensor(Tensor<double, 2>{{0.5, -0.5}});  // (1, 2): flattened to (2)
+  a["gender"] = npz::text("male");
+  const auto path = (std::filesystem::temp_directory_path() / "maskadapt_npz_amass_tensor_test.npz").string();
+  npz::write(path, a);
+  const npz::AmassMotion m = npz::read_amass(path);
+  EXPECT_EQ(m.num_frames(), 3);
+  EXPECT_EQ(m.num_joints(), 22);
+  ASSERT_EQ(m.poses.shape(0), T);
+  ASSERT_EQ(m.poses.shape(1), C);
+  EXPECT_TRUE(m.poses == poses);
+  EXPECT_TRUE(m.trans == trans);
+  EXPECT_EQ(m.pose(2, 21), Vec3(0.02 + 0.063, 0.02 + 0.064, 0.02 + 0.065));
+  EXPECT_EQ(m.pose(1, 0), Vec3(0.01, 0.011, 0.012));
+  EXPECT_EQ(m.translation(1), Vec3(0.2, 0.1, 0.91));
+  EXPECT_EQ(m.fps, 60.0);
+  ASSERT_EQ(m.betas.size(), 2u);
+  EXPECT_EQ(m.betas(1), -0.5);
+  EXPECT_EQ(m.gender, "male");
+
+  auto refused = [&](const npz::Archive& bad) {
+    npz::write(path, bad);
+    return npz_error_from([&] { (void)npz::read_amass(path); });
+  };
+  auto bad = a;
+  bad["poses"] = npz::tensor(Tensor<double, 3>::from_shape({T, 22, 3}));  // (frames, joints, 3): not AMASS's layout
+  Error e = refused(bad);
+  EXPECT_EQ(e.context().file, path);
+  EXPECT_EQ(e.context().field, "poses");
+  EXPECT_TRUE(mentions(e.message(), "expected shape (frames, 3·joints), got 3 dimensions")) << e.what();
+  bad = a;
+  bad["poses"] = npz::tensor(xt::view(poses, xt::all(), xt::range(0, 65)));  // 65 columns
+  e = refused(bad);
+  EXPECT_EQ(e.context().field, "poses");
+  EXPECT_TRUE(mentions(e.message(), "got 65 columns")) << e.what();
+  bad = a;
+  bad["trans"] = npz::tensor(Tensor<double, 2>::from_shape({T + 1, 3}));  // one frame too many
+  e = refused(bad);
+  EXPECT_EQ(e.context().field, "trans");
+  EXPECT_TRUE(mentions(e.message(), "expected shape (3, 3)")) << e.what();
+  bad = a;
+  Tensor<double, 2> nan = poses;
+  nan(1, 4) = std::numeric_limits<double>::infinity();
+  bad["poses"] = npz::tensor(nan);
+  e = refused(bad);
+  EXPECT_EQ(e.context().field, "poses");
+  EXPECT_TRUE(mentions(e.message(), "non-finite value (inf) at [1, 4] of a (3, 66) array")) << e.what();
+  std::filesystem::remove(path);
 }
 
 TEST(Clip, SaveLoadRoundTrip) {

@@ -5,6 +5,7 @@
 #include <maskadapt/humanoid/synthetic.hpp>
 
 #include <gtest/gtest.h>
+#include <xtensor/xbuilder.hpp>
 
 #include <filesystem>
 
@@ -57,13 +58,18 @@ TEST(Retarget, AmassOfTheHumanoidIsIdentity) {
   const Quat Cq(C);
   npz::AmassMotion a;
   a.fps = c.fps;
-  a.poses.setZero(66, c.num_frames());
-  a.trans = c.root_pos;
+  const auto T = static_cast<std::size_t>(c.num_frames());
+  a.poses = xt::zeros<double>({T, std::size_t{66}});  // (frames × 3·joints)
+  a.trans = Tensor<double, 2>::from_shape({T, 3});    // (frames × 3)
+  auto set_row = [](Tensor<double, 2>& x, int t, int col, const Vec3& v) {
+    for (int k = 0; k < 3; ++k) x(static_cast<std::size_t>(t), static_cast<std::size_t>(col + k)) = v(k);
+  };
   for (int t = 0; t < c.num_frames(); ++t) {
-    a.poses.col(t).segment<3>(0) = quat_log(c.rot(t) * Cq);
+    set_row(a.trans, t, 0, c.root_pos.col(t));
+    set_row(a.poses, t, 0, quat_log(c.rot(t) * Cq));
     for (int b = 1; b < 22; ++b) {
       const Quat L = joint_rotation(c.q.col(t).segment<3>(humanoid_skeleton().dof_offset(b)));
-      a.poses.col(t).segment<3>(3 * b) = quat_log(Cq.conjugate() * L * Cq);
+      set_row(a.poses, t, 3 * b, quat_log(Cq.conjugate() * L * Cq));
     }
   }
   RetargetOptions opt;

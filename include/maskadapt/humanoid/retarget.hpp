@@ -775,11 +775,10 @@ inline MotionClip retarget_amass(const npz::AmassMotion& a, char world_up = 'z',
   seq.root_rot.resize(T);
   seq.local.assign(T, std::vector<Quat>(22, Quat::Identity()));
   for (int t = 0; t < T; ++t) {
-    const Quat root = quat_exp(a.poses.col(t).segment<3>(0));
+    const Quat root = quat_exp(a.pose(t, 0));
     seq.root_rot[t] = (Wq * root * Cq.conjugate()).normalized();
-    seq.root_pos.col(t) = Wm * a.trans.col(t);
-    for (int b = 1; b < 22; ++b)
-      seq.local[t][b] = (Cq * quat_exp(a.poses.col(t).segment<3>(3 * b)) * Cq.conjugate()).normalized();
+    seq.root_pos.col(t) = Wm * a.translation(t);
+    for (int b = 1; b < 22; ++b) seq.local[t][b] = (Cq * quat_exp(a.pose(t, b)) * Cq.conjugate()).normalized();
   }
   MotionClip clip = detail::finish(seq, desc, opt, rep, file);
   clip.description = "retargeted from AMASS " + (file.empty() ? std::string("npz") : file);

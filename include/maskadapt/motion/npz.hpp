@@ -14,7 +14,14 @@
 /// Numeric members (`<f8 <f4 <i8 <i4 <i2 |i1 |u1 |b1`, little- or big-endian) are converted to
 /// double; text members (`<U…` / `|S…`) to std::string; other dtypes (pickled objects) are kept
 /// as unsupported and only fail when accessed.
+///
+/// N-d access goes through xtensor (core/tensor.hpp): `member_view<N>` is a row-major tensor of
+/// the member's NumPy shape over the parsed values (no copy), `as_tensor<N>` an owning copy,
+/// `tensor(x)` a member built from any xtensor expression; Fortran-ordered members are reordered
+/// by viewing the parsed buffer column-major and assigning it to a row-major one. `as_matrix`
+/// remains for members that go straight into Eigen algebra.
 #include <maskadapt/core/error.hpp>
+#include <maskadapt/core/tensor.hpp>
 #include <maskadapt/core/types.hpp>
 
 #include <zlib.h>
@@ -76,6 +83,17 @@ inline Array scalar(double x) {
   a.values = {x};
   return a;
 }
+/// A member with the shape and row-major values of an xtensor expression (e.g. a
+/// Tensor<double, 2> of shape (frames, 3) gives NumPy shape (frames, 3)).
+template <class E>
+Array tensor(const xt::xexpression<E>& x) {
+  const Tensor<double, std::tuple_size_v<std::decay_t<decltype(x.derived_cast().shape())>>> t = x.derived_cast();
+  Array a;
+  a.descr = "<f8";
+  a.shape.assign(t.shape().begin(), t.shape().end());
+  a.values.assign(t.data(), t.data() + t.size());
+  return a;
+}
 /// A 0-d text member (dtype <U n).
 inline Array text(std::string s) {
   Array a;
@@ -112,6 +130,26 @@ inline MatrixXd as_matrix(const Array& a, const std::string& name, const std::st
   for (Index r = 0; r < rows; ++r)
     for (Index c = 0; c < cols; ++c) m(r, c) = a.values[static_cast<std::size_t>(r * cols + c)];
   return m;
+}
+
+/// A numeric N-d member as a read-only row-major tensor of its NumPy shape over the parsed values
+/// (no copy; valid while `a` lives): for a (frames, 3·joints) member, view(t, c) is frame t's
+/// value c. Throws naming `file` and member `name` unless the member is numeric with N dims.
+template <std::size_t N>
+auto member_view(const Array& a, const std::string& name, const std::string& file = {}) {
+  require(a.supported && a.numeric, "member is not numeric (dtype " + a.descr + ")", {file, std::nullopt, name});
+  require(a.shape.size() == N,
+          "expected a " + std::to_string(N) + "-D array, got " + std::to_string(a.ndim()) + " dimensions",
+          {file, std::nullopt, name});
+  std::array<std::size_t, N> shape{};
+  std::copy(a.shape.begin(), a.shape.end(), shape.begin());
+  return xt::adapt(a.values.data(), a.values.size(), xt::no_ownership(), shape);
+}
+
+/// The same member as an owning tensor (one copy), for data that outlives the archive.
+template <std::size_t N>
+Tensor<double, N> as_tensor(const Array& a, const std::string& name, const std::string& file = {}) {
+  return member_view<N>(a, name, file);
 }
 
 /// A numeric member holding exactly one value (0-d or shape (1)).
@@ -287,20 +325,13 @@ inline Array parse_npy(std::string_view blob, const ErrorContext& ctx) {
     a.values[i] = v;
   }
   if (fortran == "True" && a.shape.size() > 1) {
-    // column-major → row-major
+    // The values were read in file order, i.e. column-major: view them so and assign the view to
+    // a row-major buffer of the same shape (xtensor walks both index spaces).
+    const auto fortran_view =
+        xt::adapt<xt::layout_type::column_major>(a.values.data(), count, xt::no_ownership(), a.shape);
     std::vector<double> c(count);
-    const std::size_t nd = a.shape.size();
-    std::vector<std::size_t> idx(nd, 0);
-    for (std::size_t f = 0; f < count; ++f) {
-      // idx = multi-index of Fortran position f
-      std::size_t r = 0;
-      for (std::size_t k = 0; k < nd; ++k) r = r * a.shape[k] + idx[k];
-      c[r] = a.values[f];
-      for (std::size_t k = 0; k < nd; ++k) {
-        if (++idx[k] < a.shape[k]) break;
-        idx[k] = 0;
-      }
-    }
+    auto c_view = xt::adapt<xt::layout_type::row_major>(c.data(), count, xt::no_ownership(), a.shape);
+    c_view = fortran_view;
     a.values.swap(c);
   }
   return a;
@@ -554,41 +585,63 @@ inline void write(const std::string& path, const Archive& ar) {
 // AMASS
 // ---------------------------------------------------------------------------------------------
 
-/// An AMASS clip (SMPL / SMPL-H / SMPL-X parameters), columns are frames.
+/// An AMASS clip (SMPL / SMPL-H / SMPL-X parameters) in the file's own layout: one row per frame.
 struct AmassMotion {
-  MatrixXd poses;     ///< (3·num_joints × num_frames) axis-angle per SMPL joint (rad), SMPL y-up body frame
-  MatrixXd trans;     ///< (3 × num_frames) root translation (m), SMPL/AMASS world frame
-  double fps = 0;     ///< mocap_framerate (or mocap_frame_rate)
-  VectorXd betas;     ///< shape coefficients (may be empty)
-  std::string gender; ///< "male" / "female" / "neutral" if present
+  Tensor<double, 2> poses;  ///< (frames × 3·joints) axis-angle of SMPL joint j in columns [3j, 3j+3) (rad), SMPL y-up body frame
+  Tensor<double, 2> trans;  ///< (frames × 3) root translation (m), SMPL/AMASS world frame
+  double fps = 0;           ///< mocap_framerate (or mocap_frame_rate)
+  Tensor<double, 1> betas;  ///< (num_betas) shape coefficients (may be empty)
+  std::string gender;       ///< "male" / "female" / "neutral" if present
 
-  int num_frames() const { return static_cast<int>(poses.cols()); }
-  int num_joints() const { return static_cast<int>(poses.rows() / 3); }
+  int num_frames() const { return static_cast<int>(poses.shape(0)); }
+  int num_joints() const { return static_cast<int>(poses.shape(1) / 3); }
+  /// Axis-angle (rad) of SMPL joint j at frame t.
+  Vec3 pose(int t, int j) const {
+    const auto r = static_cast<std::size_t>(t), c = static_cast<std::size_t>(3 * j);
+    return {poses(r, c), poses(r, c + 1), poses(r, c + 2)};
+  }
+  /// Root translation (m) at frame t.
+  Vec3 translation(int t) const {
+    const auto r = static_cast<std::size_t>(t);
+    return {trans(r, 0), trans(r, 1), trans(r, 2)};
+  }
 };
 
-/// Reads AMASS parameters from an archive; checks members, shapes and values.
+/// Reads AMASS parameters from an archive; checks members, shapes and values. The checks run on
+/// views of the parsed members; each array is copied once, into its tensor.
 inline AmassMotion amass_from_archive(const Archive& ar, const std::string& file = {}) {
   AmassMotion m;
-  const MatrixXd poses = as_matrix(member(ar, "poses", file), "poses", file);  // (N × 3J)
-  require(member(ar, "poses", file).ndim() == 2, "expected shape (frames, 3·joints)", {file, std::nullopt, "poses"});
-  require(poses.cols() >= 66 && poses.cols() % 3 == 0,
-          "expected (frames, 3·joints) with at least the 22 body joints (66 columns), got " +
-              std::to_string(poses.cols()) + " columns",
+  const Array& poses_member = member(ar, "poses", file);
+  require(poses_member.supported && poses_member.numeric, "member is not numeric (dtype " + poses_member.descr + ")",
           {file, std::nullopt, "poses"});
-  const MatrixXd trans = as_matrix(member(ar, "trans", file), "trans", file);  // (N × 3)
-  require(member(ar, "trans", file).ndim() == 2 && trans.cols() == 3 && trans.rows() == poses.rows(),
-          "expected shape (" + std::to_string(poses.rows()) + ", 3)", {file, std::nullopt, "trans"});
-  require(poses.rows() >= 1, "clip has no frames", {file, std::nullopt, "poses"});
-  require_finite(poses, "poses", file);
-  require_finite(trans, "trans", file);
-  m.poses = poses.transpose();
-  m.trans = trans.transpose();
+  require(poses_member.ndim() == 2, "expected shape (frames, 3·joints), got " + std::to_string(poses_member.ndim()) +
+                                        " dimensions",
+          {file, std::nullopt, "poses"});
+  const auto poses = member_view<2>(poses_member, "poses", file);  // (frames × 3·joints), no copy
+  const std::size_t frames = poses.shape(0), cols = poses.shape(1);
+  require(cols >= 66 && cols % 3 == 0,
+          "expected (frames, 3·joints) with at least the 22 body joints (66 columns), got " + std::to_string(cols) +
+              " columns",
+          {file, std::nullopt, "poses"});
+  const Array& trans_member = member(ar, "trans", file);
+  require(trans_member.supported && trans_member.numeric, "member is not numeric (dtype " + trans_member.descr + ")",
+          {file, std::nullopt, "trans"});
+  require(trans_member.ndim() == 2 && trans_member.shape[1] == 3 && trans_member.shape[0] == frames,
+          "expected shape (" + std::to_string(frames) + ", 3)", {file, std::nullopt, "trans"});
+  const auto trans = member_view<2>(trans_member, "trans", file);  // (frames × 3), no copy
+  require(frames >= 1, "clip has no frames", {file, std::nullopt, "poses"});
+  require_finite_tensor(poses, "poses", file);
+  require_finite_tensor(trans, "trans", file);
+  m.poses = poses;
+  m.trans = trans;
   const std::string fps_key = ar.count("mocap_framerate") ? "mocap_framerate" : "mocap_frame_rate";
   m.fps = as_scalar(member(ar, fps_key, file), fps_key, file);
   require(std::isfinite(m.fps) && m.fps > 0 && m.fps < 10000, "frame rate must be positive", {file, std::nullopt, fps_key});
   if (auto it = ar.find("betas"); it != ar.end() && it->second.numeric) {
-    m.betas = Eigen::Map<const VectorXd>(it->second.values.data(), static_cast<Index>(it->second.values.size()));
-    require_finite(m.betas, "betas", file);
+    // (num_betas): any shape, flattened (AMASS stores (16,), some exports (1, 10))
+    m.betas = xt::adapt(it->second.values.data(), it->second.values.size(), xt::no_ownership(),
+                        std::array<std::size_t, 1>{it->second.values.size()});
+    require_finite_tensor(m.betas, "betas", file);
   }
   if (auto it = ar.find("gender"); it != ar.end() && !it->second.numeric) m.gender = it->second.text;
   return m;
