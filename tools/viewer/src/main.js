@@ -7,6 +7,7 @@ import { legendEntries, maskLabel } from './colors.js';
 import { parseLog, seriesKeys, alignSeries, DEFAULT_SERIES } from './logs.js';
 import { Player } from './player.js';
 import { RolloutView } from './scene.js';
+import { initLive } from './live/live.js';
 
 const $ = (id) => document.getElementById(id);
 const statusEl = $('status');
@@ -20,6 +21,7 @@ for (const tab of document.querySelectorAll('nav .tab')) {
     for (const t of document.querySelectorAll('nav .tab')) t.classList.toggle('active', t === tab);
     for (const p of document.querySelectorAll('.panel')) p.classList.toggle('active', p.id === `panel-${tab.dataset.tab}`);
     if (tab.dataset.tab === 'rollouts') slots.forEach((s) => s.view && s.view.resize());
+    else if (tab.dataset.tab === 'live') initLive();
     else renderCharts();
   });
 }
@@ -120,6 +122,7 @@ scrub.addEventListener('input', () => {
 $('speed').addEventListener('change', (e) => (player.speed = Number(e.target.value)));
 document.addEventListener('keydown', (e) => {
   if (e.target.tagName === 'INPUT' && e.target.type !== 'range') return;
+  if (!$('panel-rollouts').classList.contains('active')) return;
   if (e.code === 'Space') {
     e.preventDefault();
     playBtn.click();
@@ -297,3 +300,6 @@ chartsEl.addEventListener('drop', (e) => {
   chartsEl.classList.remove('dragover');
   openLogs([...e.dataTransfer.files]);
 });
+
+// `#live` in the address opens the Live tab directly (the README's link).
+if (location.hash === '#live') $('tab-live').click();
