@@ -1,20 +1,30 @@
 #!/usr/bin/env bash
 # Installs the web viewer's npm dependencies from the lock file (tools/viewer/package-lock.json)
-# and builds it into tools/viewer/dist. Downloads no browser: the end-to-end test uses Debian's
-# Chromium (apt-get install chromium) through playwright-core.
+# and builds it into tools/viewer/dist: a static site (python3 -m http.server -d tools/viewer/dist)
+# that also runs the shipped policies live (the Live tab, `#live`): MuJoCo compiled to
+# WebAssembly comes from the npm package `mujoco-js` (pinned in the lock file and bundled into
+# dist/), the models and MJCF are copied into dist/live/ from models/ and assets/ — nothing is
+# downloaded when the page runs. Downloads no browser: the end-to-end tests use Debian's Chromium
+# (apt-get install chromium) through playwright-core.
 #
 #   scripts/setup-viewer.sh            # npm ci + npm run build
 #   scripts/setup-viewer.sh --test     # also run the unit tests (vitest)
 #   scripts/setup-viewer.sh --with-chromium   # also apt-get install Debian's chromium (e2e test)
+#   scripts/setup-viewer.sh --live-reference  # also rebuild the C++ reference of the live page
+#       (tests/viewer/live_reference.cpp, in build-viewer/) and rewrite tools/viewer/live/
+#       (characters, recorded C++ steps, native distance/falls) — after a change to the
+#       observation, the policies, the characters or the shipped models
 set -euo pipefail
 cd "$(dirname "$0")/../tools/viewer"
 
 run_tests=0
 with_chromium=0
+live_reference=0
 for arg in "$@"; do
   case "$arg" in
     --test) run_tests=1 ;;
     --with-chromium) with_chromium=1 ;;
+    --live-reference) live_reference=1 ;;
     *) echo "setup-viewer.sh: unknown option '$arg'" >&2; exit 2 ;;
   esac
 done
@@ -39,6 +49,12 @@ if ! npm ci --no-audit --no-fund; then
   echo "setup-viewer: npm ci failed; installing the lock file's versions with npm install --no-save" >&2
   npm install --no-save --no-audit --no-fund
 fi
+if [[ "$live_reference" == 1 ]]; then
+  repo="$(cd ../.. && pwd)"
+  nice -n 19 cmake -S "$repo" -B "$repo/build-viewer" -DCMAKE_BUILD_TYPE=Release
+  nice -n 19 cmake --build "$repo/build-viewer" --target maskadapt_viewer_live_reference -j1
+  "$repo/build-viewer/tests/viewer/maskadapt_viewer_live_reference" "$repo/models" "$repo/tools/viewer/live"
+fi
 npm run build
 if [[ "$run_tests" == 1 ]]; then
   npm test
@@ -48,3 +64,4 @@ if [[ ! -x /usr/bin/chromium ]]; then
   echo "              install it with: apt-get install chromium" >&2
 fi
 echo "setup-viewer: built tools/viewer/dist — serve it with: python3 -m http.server -d tools/viewer/dist 8000"
+echo "              then open http://localhost:8000/#live to run the shipped policies in the page"
