@@ -18,8 +18,15 @@
 //       each start pose the page offers, 10 s, deterministic, per mask: distance walked in the
 //       ground plane and falls. The browser's figures are compared with these (docs/viewer.md).
 //
+//   OUT_DIR/fixture_<stage-2 model>.json, OUT_DIR/native_<stage-2 model>.json — the same for the
+//       stage-2 composition policies (adapt/residual_policy.hpp: base input, base mean, residual
+//       input, normalised residual input, residual mean, composite mean, targets); the native
+//       figures come from the same loop run for 10 s (what `maskadapt play-residual
+//       --deterministic` computes per step).
+//
 // Models: mask_mi_walk_bandai, amp_walk_bandai (humanoid), g1_mask_mi_walk_bandai,
-// g1_amp_walk_bandai (G1). Everything is deterministic (mean actions, fixed starts).
+// g1_amp_walk_bandai (G1); stage 2: table2/swim_ours_s1, table2/kick_cut_ours_s1 (humanoid).
+// Everything is deterministic (mean actions, fixed starts).
 #include <maskadapt/humanoid/observation.hpp>
 #include <maskadapt/humanoid/synthetic.hpp>
 #include <maskadapt/mask/apply.hpp>
@@ -27,6 +34,7 @@
 #include <maskadapt/sim/mujoco/humanoid_sim.hpp>
 #include <maskadapt/train/base_policy.hpp>
 #include <maskadapt/train/play.hpp>
+#include <maskadapt/train/residual_config.hpp>
 
 #include <nlohmann/json.hpp>
 
@@ -223,6 +231,103 @@ json native_json(const std::string& model_path, const std::string& model_name, c
           {"runs", runs}};
 }
 
+/// Composite PD targets of a stage-2 policy for one set of body states (the per-step computation
+/// of play-residual with mean actions); the intermediate values go into `rec` when given.
+MatrixXf residual_targets(const adapt::ResidualPolicy<float>& pol, const PartElements& parts, const Skeleton& skel,
+                          const BodyStates& b, PartMask mask, json* rec) {
+  const Index obs_dim = observation_dim(skel);
+  MatrixXf obs(obs_dim, 1), x, mu, targets;
+  compute_observation(skel, b, obs.col(0));
+  const std::vector<PartMask> masks = {mask};
+  adapt::ResidualWorkspace<float> w;
+  pol.build_input(parts, obs, masks, MatrixXf(0, 1), x, w);
+  pol.mean(x, masks, mu, w);
+  pol.to_targets(mu, targets);
+  if (rec) {
+    MatrixXf res_norm;
+    pol.residual().normalize(x, res_norm);
+    *rec = {{"mask_bits", mask.bits},
+            {"mask", mask.to_string()},
+            {"body_states", body_states_json(b)},
+            {"observation", vec(obs.col(0))},
+            {"base_input", vec(w.base_in.col(0))},
+            {"base_mean", vec(w.base_mu.col(0))},
+            {"residual_input", vec(x.col(0))},
+            {"residual_normalised_input", vec(res_norm.col(0))},
+            {"residual_mean", vec(w.res_mu.col(0))},
+            {"mean_action", vec(mu.col(0))},
+            {"targets", vec(targets.col(0))}};
+  }
+  return targets;
+}
+
+json residual_fixture_json(const std::string& model_path, const std::string& model_name, const MujocoCharacter& ch) {
+  train::ResidualTrainConfig cfg;
+  const adapt::ResidualPolicy<float> pol = train::residual_policy_from_checkpoint(load_checkpoint(model_path), ch.skeleton, &cfg);
+  MujocoHumanoidSim sim(1, 1, ch);
+  const auto starts = start_poses(ch);
+  sim.reset(0, starts.front().second);
+  const PartElements parts(observation_parts(ch.skeleton));
+  const PartMask trained = PartMask::parse(cfg.masks.front(), "masks");
+  const std::vector<PartMask> schedule = {trained, PartMask::none(), trained | PartMask::parse("trunk"), PartMask::parse("left_arm,left_leg")};
+  const std::vector<int> recorded = {0, 9, 17, 26, 33};
+  json steps = json::array();
+  for (int step = 0; step < 40; ++step) {
+    json rec;
+    const bool keep = std::find(recorded.begin(), recorded.end(), step) != recorded.end();
+    const MatrixXf targets = residual_targets(pol, parts, ch.skeleton, sim.body_states(0), schedule[static_cast<std::size_t>(step / 10)],
+                                              keep ? &rec : nullptr);
+    if (keep) {
+      rec["step"] = step;
+      steps.push_back(rec);
+    }
+    sim.step(targets);
+  }
+  return {{"format", "maskadapt-live-fixture"},
+          {"model", model_name},
+          {"character", ch.name},
+          {"kind", "maskadapt.residual_policy"},
+          {"task", cfg.task},
+          {"method", cfg.method},
+          {"trained_mask", trained.to_string()},
+          {"start", starts.front().first},
+          {"note", "written by tests/viewer/live_reference.cpp from the C++ of include/maskadapt on MuJoCo " +
+                       std::string(mj_versionString())},
+          {"steps", steps}};
+}
+
+json residual_native_json(const std::string& model_path, const std::string& model_name, const MujocoCharacter& ch) {
+  train::ResidualTrainConfig cfg;
+  const adapt::ResidualPolicy<float> pol = train::residual_policy_from_checkpoint(load_checkpoint(model_path), ch.skeleton, &cfg);
+  const PartElements parts(observation_parts(ch.skeleton));
+  const FallCriteria fall = ch.fall_criteria(cfg.rl.env.termination_height);
+  json runs = json::array();
+  for (const auto& [label, pose] : start_poses(ch)) {
+    for (const std::string mask_text : {cfg.masks.front(), std::string("none")}) {
+      MujocoHumanoidSim sim(1, 1, ch);
+      sim.reset(0, pose);
+      const PartMask mask = PartMask::parse(mask_text, "mask");
+      const Vec3 from = sim.body_states(0).pos.col(0);
+      bool was_fallen = has_fallen(fall, sim.body_states(0), sim.contacts(0));
+      std::vector<double> fall_times;
+      for (int step = 1; step <= 300; ++step) {
+        sim.step(residual_targets(pol, parts, ch.skeleton, sim.body_states(0), mask, nullptr));
+        const bool fallen = has_fallen(fall, sim.body_states(0), sim.contacts(0));
+        if (fallen && !was_fallen) fall_times.push_back(step * sim.control_dt());
+        was_fallen = fallen;
+      }
+      const Vec3 d = sim.body_states(0).pos.col(0) - from;
+      const double distance = std::hypot(d.x(), d.y());
+      std::cout << "native " << model_name << " | " << label << " | mask " << mask.to_string() << ": " << distance << " m, "
+                << fall_times.size() << " fall(s)\n";
+      runs.push_back({{"start", label}, {"mask", mask.to_string()}, {"distance_m", distance}, {"falls", fall_times.size()},
+                      {"first_fall_s", fall_times.empty() ? json(nullptr) : json(fall_times.front())}});
+    }
+  }
+  return {{"format", "maskadapt-live-native"}, {"model", model_name}, {"character", ch.name}, {"mujoco", mj_versionString()},
+          {"seconds", 10.0}, {"actions", "mean (deterministic)"}, {"runs", runs}};
+}
+
 }  // namespace
 
 int main(int argc, char** argv) try {
@@ -247,6 +352,11 @@ int main(int argc, char** argv) try {
     const std::string path = (models / (name + ".bin")).string();
     write_json(out / ("fixture_" + name + ".json"), fixture_json(path, name, *ch), -1);  // (compact: numbers)
     if (native) write_json(out / ("native_" + name + ".json"), native_json(path, name, *ch));
+  }
+  for (const std::string name : {"swim_ours_s1", "kick_cut_ours_s1"}) {
+    const std::string path = (models / "table2" / (name + ".bin")).string();
+    write_json(out / ("fixture_" + name + ".json"), residual_fixture_json(path, name, humanoid), -1);
+    if (native) write_json(out / ("native_" + name + ".json"), residual_native_json(path, name, humanoid));
   }
   return 0;
 } catch (const maskadapt::Error& e) {
