@@ -82,6 +82,61 @@ TEST(Generator, PrimitiveDatasetWindows) {
   EXPECT_THROW(make_primitive_dataset(skel, short_clip, 5, 15), Error);
 }
 
+// The (N × H × D) and (N × F × D) views lie on the flat (H·D × N), (F·D × N) columns, and the
+// windows written through them are bit for bit the encoded frames of the canonicalised slices,
+// as when each window was encoded into a matrix of its own and its columns copied (the layout
+// before the views).
+TEST(Generator, PrimitiveDatasetTensorViewsAreTheFlatColumns) {
+  const Skeleton& skel = humanoid_skeleton();
+  const auto clips = test::make_clips();
+  const Index H = 5, F = 15, stride = 4;
+  const auto d = make_primitive_dataset(skel, clips, H, F, stride);
+  const Index D = d.frame_dim, N = d.size();
+  const auto hist = history_tensor(d);
+  const auto fut = future_tensor(d);
+  ASSERT_EQ(hist.shape(0), std::size_t(N));
+  ASSERT_EQ(hist.shape(1), std::size_t(H));
+  ASSERT_EQ(hist.shape(2), std::size_t(D));
+  ASSERT_EQ(fut.shape(1), std::size_t(F));
+  EXPECT_EQ(&hist(7, 3, 11), &d.history(3 * D + 11, 7));  // no copy: the same floats
+  EXPECT_EQ(&fut(N - 1, F - 1, D - 1), &d.future(F * D - 1, N - 1));
+
+  // the reference: every window encoded on its own, its (D × W) columns copied in turn
+  MatrixXf history(H * D, N), future(F * D, N);
+  Index n = 0;
+  for (const auto& clip : clips) {
+    Trajectory world = clip.motion;
+    compute_body_positions(skel, world);
+    for (Index s = 0; s + H + F <= world.num_frames(); s += stride, ++n) {
+      const MatrixXf w = encode_frames<float>(skel, canonicalize(world.slice(s, H + F), 0).first);
+      history.col(n) = Eigen::Map<const VectorXf>(w.data(), H * D);
+      future.col(n) = Eigen::Map<const VectorXf>(w.data() + H * D, F * D);
+      if (n == 9) {  // and in the tensor's own terms: window 9, frame j, feature i is w(i, j)
+        for (Index j = 0; j < H + F; ++j)
+          for (Index i = 0; i < D; i += 13)
+            EXPECT_EQ(j < H ? hist(9, j, i) : fut(9, j - H, i), w(i, j)) << j << " " << i;
+      }
+    }
+  }
+  ASSERT_EQ(n, N);
+  EXPECT_TRUE(d.history == history);
+  EXPECT_TRUE(d.future == future);
+
+  // writes through the view land in the flat column; a view of the wrong shape is refused by name
+  PrimitiveDataset e = d;
+  history_tensor(e)(2, 4, 5) = 42.0f;
+  EXPECT_EQ(e.history(4 * D + 5, 2), 42.0f);
+  e.history_frames = H + 1;
+  try {
+    (void)history_tensor(e);
+    FAIL() << "no error";
+  } catch (const Error& err) {
+    EXPECT_EQ(err.context().field, "history");
+    EXPECT_NE(std::string(err.what()).find("needs " + std::to_string(N * (H + 1) * D) + " values"), std::string::npos)
+        << err.what();
+  }
+}
+
 namespace {
 /// A plug-in generator that continues the history at constant velocity: checks the concept and
 /// that rollout re-canonicalises and stitches primitives correctly.

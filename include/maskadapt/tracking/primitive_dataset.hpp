@@ -4,8 +4,14 @@
 /// H + F frames; each window is canonicalised to its first frame and encoded with
 /// `encode_frames` (frame_features.hpp). Frame j of a window occupies rows [j·D, (j+1)·D) of the
 /// flattened column (frames stacked in time order).
+///
+/// The same memory read as windows × frames × features: `history_tensor(d)` is the
+/// (N × H × D) xtensor view of `d.history` (and `future_tensor(d)` the (N × F × D) view of
+/// `d.future`), no copy: history_tensor(d)(n, j, i) == d.history(j·D + i, n). The networks take
+/// the flattened columns (Eigen, BLAS); the dataset is written window by window through the views.
 #include <maskadapt/core/error.hpp>
 #include <maskadapt/core/rng.hpp>
+#include <maskadapt/core/tensor.hpp>
 #include <maskadapt/core/types.hpp>
 #include <maskadapt/motion/skeleton.hpp>
 #include <maskadapt/tracking/frame_features.hpp>
@@ -51,6 +57,25 @@ struct PrimitiveDataset {
   Index size() const { return history.cols(); }
 };
 
+/// (N × H × D) view of `d.history` (no copy; writable): window n, history frame j, feature i.
+inline auto history_tensor(PrimitiveDataset& d) {
+  return tensor_view(d.history, std::array{std::size_t(d.size()), std::size_t(d.history_frames), std::size_t(d.frame_dim)},
+                     "history");
+}
+inline auto history_tensor(const PrimitiveDataset& d) {
+  return tensor_view(d.history, std::array{std::size_t(d.size()), std::size_t(d.history_frames), std::size_t(d.frame_dim)},
+                     "history");
+}
+/// (N × F × D) view of `d.future` (no copy; writable): window n, future frame j, feature i.
+inline auto future_tensor(PrimitiveDataset& d) {
+  return tensor_view(d.future, std::array{std::size_t(d.size()), std::size_t(d.future_frames), std::size_t(d.frame_dim)},
+                     "future");
+}
+inline auto future_tensor(const PrimitiveDataset& d) {
+  return tensor_view(d.future, std::array{std::size_t(d.size()), std::size_t(d.future_frames), std::size_t(d.frame_dim)},
+                     "future");
+}
+
 /// Cuts every clip into windows of H + F frames with the given stride (frames). Clips shorter
 /// than H + F frames are skipped; throws if no window at all results.
 inline PrimitiveDataset make_primitive_dataset(const Skeleton& skel, const std::vector<LabelledTrajectory>& clips,
@@ -61,7 +86,16 @@ inline PrimitiveDataset make_primitive_dataset(const Skeleton& skel, const std::
   d.future_frames = F;
   d.frame_dim = frame_feature_dim(skel);
   const Index D = d.frame_dim, W = H + F;
-  std::vector<MatrixXf> windows;
+  // windows per clip, known before any is encoded: the dataset is allocated once and every
+  // window is written straight into its slot
+  Index N = 0;
+  for (const auto& clip : clips)
+    if (clip.motion.num_frames() >= W) N += (clip.motion.num_frames() - W) / stride + 1;
+  d.history.resize(H * D, N);
+  d.future.resize(F * D, N);
+  auto hist = history_tensor(d);  // (N × H × D)
+  auto fut = future_tensor(d);    // (N × F × D)
+  std::size_t n = 0;
   for (std::size_t c = 0; c < clips.size(); ++c) {
     const auto& clip = clips[c];
     d.clip_texts.push_back(clip.texts);
@@ -82,9 +116,12 @@ inline PrimitiveDataset make_primitive_dataset(const Skeleton& skel, const std::
     require(clip.motion.q.rows() == skel.num_dofs(), "clip '" + clip.name + "' does not match the skeleton", {{}, {}, "q"});
     Trajectory world = clip.motion;
     compute_body_positions(skel, world);
-    for (Index s = 0; s + W <= world.num_frames(); s += stride) {
+    for (Index s = 0; s + W <= world.num_frames(); s += stride, ++n) {
       const auto [local, frame] = canonicalize(world.slice(s, W), 0);
-      windows.push_back(encode_frames<float>(skel, local));
+      const MatrixXf w = encode_frames<float>(skel, local);  // (D × W)
+      const auto frames = tensor_view(w, std::array{std::size_t(W), std::size_t(D)});  // (W × D)
+      xt::noalias(xt::view(hist, n)) = xt::view(frames, xt::range(0, H));  // no temporary: w is not d
+      xt::noalias(xt::view(fut, n)) = xt::view(frames, xt::range(H, W));
       d.clip.push_back(static_cast<int>(c));
       int seg = 0;
       for (std::size_t k = 0; k < clip.segments.size(); ++k)
@@ -93,16 +130,7 @@ inline PrimitiveDataset make_primitive_dataset(const Skeleton& skel, const std::
       d.transition.push_back(seg > 0 && s + H - clip.segments[static_cast<std::size_t>(seg)].start_frame < W ? 1 : 0);
     }
   }
-  require(!windows.empty(), "no clip is long enough for one window of " + std::to_string(W) + " frames",
-          {{}, {}, "clips"});
-  const Index N = static_cast<Index>(windows.size());
-  d.history.resize(H * D, N);
-  d.future.resize(F * D, N);
-  for (Index n = 0; n < N; ++n) {
-    const MatrixXf& w = windows[static_cast<std::size_t>(n)];
-    d.history.col(n) = Eigen::Map<const VectorXf>(w.data(), H * D);
-    d.future.col(n) = Eigen::Map<const VectorXf>(w.data() + H * D, F * D);
-  }
+  require(N > 0, "no clip is long enough for one window of " + std::to_string(W) + " frames", {{}, {}, "clips"});
   return d;
 }
 
