@@ -16,6 +16,7 @@
 #include <maskadapt/core/error.hpp>
 
 #include <xtensor/xadapt.hpp>
+#include <xtensor/xnoalias.hpp>
 #include <xtensor/xtensor.hpp>
 #include <xtensor/xview.hpp>
 
