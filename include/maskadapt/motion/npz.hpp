@@ -17,7 +17,7 @@
 ///
 /// N-d access goes through xtensor (core/tensor.hpp): `member_view<N>` is a row-major tensor of
 /// the member's NumPy shape over the parsed values (no copy), `as_tensor<N>` an owning copy,
-/// `tensor(x)` a member built from any xtensor expression. `as_matrix` remains for members that
+/// `tensor(x)` a member built from a fixed-rank xtensor expression. `as_matrix` remains for members that
 /// go straight into Eigen algebra.
 #include <maskadapt/core/error.hpp>
 #include <maskadapt/core/tensor.hpp>
@@ -82,7 +82,7 @@ inline Array scalar(double x) {
   a.values = {x};
   return a;
 }
-/// A member with the shape and row-major values of an xtensor expression (e.g. a
+/// A member with the shape and row-major values of a fixed-rank xtensor expression (e.g. a
 /// Tensor<double, 2> of shape (frames, 3) gives NumPy shape (frames, 3)).
 template <class E>
 Array tensor(const xt::xexpression<E>& x) {
