@@ -67,6 +67,9 @@ fi
 if [ "$build" = 1 ]; then
   extra=()
   [ "$with_torch" = 1 ] && extra+=(-DMASKADAPT_WITH_TORCH=ON)
+  packages_s=$SECONDS
   cmake -S . -B build -DCMAKE_BUILD_TYPE=Release "${extra[@]}" >/dev/null
   cmake --build build -j"$(nproc)" "${target[@]}"
+  # (test.sh reads these two lines for its per-stage times)
+  echo "setup.sh: packages and checks took ${packages_s} s, the Release build $((SECONDS - packages_s)) s"
 fi
