@@ -325,7 +325,7 @@ inline Array parse_npy(std::string_view blob, const ErrorContext& ctx) {
   }
   if (fortran == "True" && a.shape.size() > 1) {
     // column-major → row-major. (An xtensor column-major view assigned to a row-major one, or
-    // the transpose of the reversed shape, did the same 1.26–1.5× slower: docs/architecture.md.)
+    // the transpose of the reversed shape, did the same 1.5× slower: docs/architecture.md.)
     std::vector<double> c(count);
     const std::size_t nd = a.shape.size();
     std::vector<std::size_t> idx(nd, 0);
