@@ -1,4 +1,29 @@
 # Shared by the table grids (scripts/table2_grid.sh, scripts/table3_grid.sh, scripts/table4_grid.sh); source it, with BIN set.
+#
+# DRY_RUN=1 (scripts/reproduce_results.sh passes it on): the grids print each maskadapt command they
+# would run, one shell-quoted line on stdout, run none and write nothing; progress goes to stderr.
+DRY_RUN=${DRY_RUN:-0}
+
+# cmd ARGS... — runs ARGS, or under DRY_RUN=1 prints them as one line.
+cmd() {
+  if [[ "$DRY_RUN" == 1 ]]; then
+    local line
+    line=$(printf '%q ' "$@")
+    echo "${line% }"
+  else
+    "$@"
+  fi
+}
+
+# quiet ARGS... — cmd with the command's stdout discarded.
+quiet() {
+  if [[ "$DRY_RUN" == 1 ]]; then cmd "$@"; else "$@" >/dev/null; fi
+}
+
+# say TEXT... — a progress line: on stdout, or on stderr under DRY_RUN=1 (stdout then holds commands only).
+say() {
+  if [[ "$DRY_RUN" == 1 ]]; then echo "$*" >&2; else echo "$*"; fi
+}
 
 # train_or_resume DIR ITERATIONS TRAIN_RESIDUAL_ARGS... — trains the cell in DIR to ITERATIONS: a
 # new run with the given arguments, or, when DIR already holds a checkpoint, that run continued
@@ -7,16 +32,16 @@ train_or_resume() {
   local dir="$1" iterations="$2"
   shift 2
   if [[ -f "$dir/checkpoint.bin" ]]; then
-    "$BIN" train-residual --resume "$dir/checkpoint.bin" --iterations "$iterations" --out "$dir"
+    cmd "$BIN" train-residual --resume "$dir/checkpoint.bin" --iterations "$iterations" --out "$dir"
   else
-    "$BIN" train-residual "$@" --iterations "$iterations" --out "$dir"
+    cmd "$BIN" train-residual "$@" --iterations "$iterations" --out "$dir"
   fi
 }
 
 # already_done NAME RESULT — true, and says so, when the cell's result file exists (the grids skip it).
 already_done() {
   [[ -f "$2" ]] || return 1
-  echo "== $1: done ($2)"
+  say "== $1: done ($2)"
 }
 
 # goal_cell_args TASK DATA — the composed motion, mask and goal parts of a Table 3 cell (train-residual

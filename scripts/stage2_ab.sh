@@ -33,9 +33,13 @@ CELL_ARGS=${CELL_ARGS:-$(goal_cell_args "$TASK" "$DATA")}
 dir="$OUT/${TASK}_${METHOD}_${VARIANT}_s$SEED"
 result="$dir/eval_it$ITERATIONS.json"
 already_done "$dir" "$result" && exit 0
-echo "== $dir: $(date -u +%H:%M:%S) training to $ITERATIONS iterations"
+say "== $dir: $(date -u +%H:%M:%S) training to $ITERATIONS iterations"
 # shellcheck disable=SC2046
 train_or_resume "$dir" "$ITERATIONS" --task "$TASK" --method "$METHOD" --base "$BASE" \
   $CELL_ARGS --threads "$THREADS" --seed "$SEED" "$@"
-"$BIN" eval-residual "$dir/checkpoint.bin" --task "$TASK" --envs "$EVAL_ENVS" --trials "$TRIALS" --seed "$EVAL_SEED" \
-  --out "$result" | tee "${result%.json}.txt"
+if [[ "$DRY_RUN" == 1 ]]; then
+  cmd "$BIN" eval-residual "$dir/checkpoint.bin" --task "$TASK" --envs "$EVAL_ENVS" --trials "$TRIALS" --seed "$EVAL_SEED" --out "$result"
+else
+  "$BIN" eval-residual "$dir/checkpoint.bin" --task "$TASK" --envs "$EVAL_ENVS" --trials "$TRIALS" --seed "$EVAL_SEED" \
+    --out "$result" | tee "${result%.json}.txt"
+fi

@@ -62,15 +62,24 @@ case_args() {
 # B of case (k): the kick alone, cut from styles/kick (written to a temporary name, then moved, so two
 # grids started together never read half a file)
 if [[ " $CELLS " == *" k_"* && ! -f "$KICK_CUT" ]]; then
-  mkdir -p "$OUT"
-  "$BIN" motion import "$DATA/styles/kick.bvh" --from 2.6 --to 3.7 --out "$KICK_CUT.$$.npz" >/dev/null
-  mv "$KICK_CUT.$$.npz" "$KICK_CUT"
+  if [[ "$DRY_RUN" == 1 ]]; then
+    cmd "$BIN" motion import "$DATA/styles/kick.bvh" --from 2.6 --to 3.7 --out "$KICK_CUT"
+  else
+    mkdir -p "$OUT"
+    "$BIN" motion import "$DATA/styles/kick.bvh" --from 2.6 --to 3.7 --out "$KICK_CUT.$$.npz" >/dev/null
+    mv "$KICK_CUT.$$.npz" "$KICK_CUT"
+  fi
 fi
 
 # evaluate CHECKPOINT RESULT — both thresholds into one text file (written last: its presence means
 # done), and each as JSON beside it (RESULT without .txt, + _0.1.json / _0.3.json: the per-frame visits
 # of B, for `plot_results.py visits`).
 evaluate() {
+  if [[ "$DRY_RUN" == 1 ]]; then
+    cmd "$BIN" eval-residual "$1" --task composition --envs 10 --frames 1000 --out "${2%.txt}_0.1.json"
+    cmd "$BIN" eval-residual "$1" --task composition --envs 10 --frames 1000 --threshold 0.3 --out "${2%.txt}_0.3.json"
+    return 0
+  fi
   { "$BIN" eval-residual "$1" --task composition --envs 10 --frames 1000 --out "${2%.txt}_0.1.json"
     "$BIN" eval-residual "$1" --task composition --envs 10 --frames 1000 --threshold 0.3 --out "${2%.txt}_0.3.json"; } > "$2.tmp"
   mv "$2.tmp" "$2"
@@ -85,16 +94,17 @@ for cell in $CELLS; do
   # the control: the frozen base with the same mask (one iteration: the residual's output is still zero)
   control="$OUT/${case_}_control"
   if [[ ! -f "$control/eval_it1.txt" ]]; then
-    "$BIN" train-residual --task composition --method ours --base "$BASE" --new-motion $motion \
-      --masks "$(mask_for "$case_")" --threads "$THREADS" --seed 1 --iterations 1 --out "$control" >/dev/null
-    echo "== ${case_}_control (the frozen base)"
+    # shellcheck disable=SC2086
+    quiet "$BIN" train-residual --task composition --method ours --base "$BASE" --new-motion $motion \
+      --masks "$(mask_for "$case_")" --threads "$THREADS" --seed 1 --iterations 1 --out "$control"
+    say "== ${case_}_control (the frozen base)"
     evaluate "$control/checkpoint.bin" "$control/eval_it1.txt"
   fi
   for seed in $SEEDS; do
     dir="$OUT/${cell}_s$seed"
     result="$dir/eval_it$ITERATIONS.txt"
     already_done "${cell}_s$seed" "$result" && continue
-    echo "== ${cell}_s$seed: $(date -u +%H:%M:%S) training to $ITERATIONS iterations in $dir"
+    say "== ${cell}_s$seed: $(date -u +%H:%M:%S) training to $ITERATIONS iterations in $dir"
     # shellcheck disable=SC2046
     train_or_resume "$dir" "$ITERATIONS" --task composition --method "$method" --base "$BASE" \
       --new-motion $motion --masks "$(mask_for "$case_")" $(case_args "$case_") $EXTRA_ARGS --threads "$THREADS" --seed "$seed"

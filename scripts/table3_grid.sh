@@ -32,10 +32,10 @@ for cell in $CELLS; do
   dir="$OUT/${cell}_s$SEED"
   result="$dir/eval_it$ITERATIONS.json"
   already_done "$cell" "$result" && continue
-  echo "== $cell: $(date -u +%H:%M:%S) training to $ITERATIONS iterations in $dir"
+  say "== $cell: $(date -u +%H:%M:%S) training to $ITERATIONS iterations in $dir"
   # shellcheck disable=SC2046
   train_or_resume "$dir" "$ITERATIONS" --task "$task" --method "$method" --base "$BASE" \
     $(goal_cell_args "$task" "$DATA") \
     --threads "$THREADS" --seed "$SEED"
-  "$BIN" eval-residual "$dir/checkpoint.bin" --task "$task" --envs "$EVAL_ENVS" --trials "$TRIALS" --out "$result"
+  cmd "$BIN" eval-residual "$dir/checkpoint.bin" --task "$task" --envs "$EVAL_ENVS" --trials "$TRIALS" --out "$result"
 done

@@ -28,9 +28,9 @@ for method in $CELLS; do
   dir="$OUT/tracking_${method}_s$SEED"
   result="$dir/eval_it$ITERATIONS.json"
   already_done "$method" "$result" && continue
-  echo "== $method: $(date -u +%H:%M:%S) training to $ITERATIONS iterations in $dir"
+  say "== $method: $(date -u +%H:%M:%S) training to $ITERATIONS iterations in $dir"
   if [[ "$method" == scratch ]]; then base=(--motions "$MOTIONS"); else base=(--base "$BASE"); fi
   train_or_resume "$dir" "$ITERATIONS" --task tracking --method "$method" "${base[@]}" --generator "$GENERATOR" \
     --designated arms --threads "$THREADS" --seed "$SEED"
-  "$BIN" eval-residual "$dir/checkpoint.bin" --task tracking --num-prompts 10 --seconds 5 --repeats 3 --out "$result"
+  cmd "$BIN" eval-residual "$dir/checkpoint.bin" --task tracking --num-prompts 10 --seconds 5 --repeats 3 --out "$result"
 done
