@@ -11,7 +11,7 @@
 #   scripts/setup-viewer.sh --test     # also run the unit tests (vitest)
 #   scripts/setup-viewer.sh --with-chromium   # also apt-get install Debian's chromium (e2e test)
 #   scripts/setup-viewer.sh --live-reference  # also rebuild the C++ reference of the live page
-#       (tests/viewer/live_reference.cpp, in build-viewer/) and rewrite tools/viewer/live/
+#       (tests/viewer/live_reference.cpp, live_tracking_reference.cpp, in build-viewer/) and rewrite tools/viewer/live/
 #       (characters, recorded C++ steps, native distance/falls) — after a change to the
 #       observation, the policies, the characters or the shipped models
 set -euo pipefail
@@ -52,8 +52,9 @@ fi
 if [[ "$live_reference" == 1 ]]; then
   repo="$(cd ../.. && pwd)"
   nice -n 19 cmake -S "$repo" -B "$repo/build-viewer" -DCMAKE_BUILD_TYPE=Release
-  nice -n 19 cmake --build "$repo/build-viewer" --target maskadapt_viewer_live_reference -j1
+  nice -n 19 cmake --build "$repo/build-viewer" --target maskadapt_viewer_live_reference maskadapt_viewer_live_tracking_reference -j1
   "$repo/build-viewer/tests/viewer/maskadapt_viewer_live_reference" "$repo/models" "$repo/tools/viewer/live"
+  "$repo/build-viewer/tests/viewer/maskadapt_viewer_live_tracking_reference" "$repo/models" "$repo/tools/viewer/live"
 fi
 npm run build
 if [[ "$run_tests" == 1 ]]; then
