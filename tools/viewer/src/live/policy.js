@@ -13,10 +13,12 @@
 //   PD targets = action_offset + action_scale ⊙ μ   (absent: 0 and 1)
 //
 // Stage 2, a residual export (train/residual_export.hpp, model/kind "maskadapt.residual_policy";
-// adapt/residual_policy.hpp), composition task, methods ours and cml:
+// adapt/residual_policy.hpp), composition and tracking tasks, methods ours and cml:
 //
 //   a_base = μ_base([s̄ ; m])                      (base/actor/*, as above)
 //   x = [s ; a_base ; m]                           (residual input: obs_dim + action_dim + 5)
+//   x = [s ; a_base ; m ; g]                       (tracking: + goal features, tracking.js; m = the
+//                                                   designated parts)
 //   Δ = μ_ψ(x̂)                                    (residual/*: normalised, no hidden groups)
 //   â_k = w·a_base,k + Δ_k  on DoFs k of the masked parts, a_base,k elsewhere  (w = residual/gain,
 //         one value or one per DoF)
@@ -259,9 +261,11 @@ function loadResidual(ck, file, err, expected) {
   const rc = jsonSection(ck, 'residual_config', err);
   const task = getString(ck, 'model/task');
   const method = getString(ck, 'model/method');
-  if (task !== 'composition')
-    throw err('model/task', `a '${task}' policy: its residual reads goal features that the live page does not compute; the page runs composition policies (models/table2/)`);
+  if (task !== 'composition' && task !== 'tracking')
+    throw err('model/task', `a '${task}' policy: its residual reads goal features that the live page does not compute; the page runs composition policies (models/table2/) and text-driven tracking policies (models/table4/)`);
   if (method !== 'ours' && method !== 'cml') throw err('model/method', `method '${method}': the live page runs residual policies (ours, cml)`);
+  if (task === 'tracking' && method !== 'ours')
+    throw err('model/method', `a tracking policy of method '${method}': its base reads the full state (residual_config.hpp masked_base_input), which the page does not run; it runs method 'ours' (models/table4/tracking_ours_*.bin)`);
   const base = rc.rl || {};
   const net = base.net || {};
   checkHidden(net.actor_hidden, err, 'residual_config', 'rl.net.actor_hidden');
@@ -274,7 +278,19 @@ function loadResidual(ck, file, err, expected) {
   if (obsDim <= 0) throw err('base/actor/norm/mean', `has ${baseInput} entries: a base's input is [s̄ ; m] with ${NUM_PARTS} mask bits`);
   checkCharacter(obsDim, actionDim, expected, err, 'base/actor/norm/mean', 'base/actor/log_std');
   const baseActor = new MlpActor(ck, 'base/actor', baseInput, net.actor_hidden, actionDim, act, err, NUM_PARTS);
-  const resInput = obsDim + actionDim + NUM_PARTS;
+  // Tracking: the residual also reads goal features (goal_steps · 6 per designated body, tracking.js);
+  // their number comes from the residual's normaliser and is checked against the character later.
+  const resRows = getFloat64(ck, 'residual/norm/mean').length;
+  const goalDim = task === 'tracking' ? resRows - (obsDim + actionDim + NUM_PARTS) : 0;
+  let goalSteps = 0, designated = null;
+  if (task === 'tracking') {
+    goalSteps = rc.goal_steps;
+    designated = rc.designated;
+    if (!Number.isInteger(goalSteps) || goalSteps < 1) throw err('residual_config', `goal_steps must be an integer >= 1, got ${JSON.stringify(goalSteps)}`);
+    if (typeof designated !== 'string' || !designated) throw err('residual_config', 'a tracking policy needs its designated parts (field designated)');
+    if (!(goalDim > 0) || goalDim % (6 * goalSteps)) throw err('residual/norm/mean', `has ${resRows} entries: not [s ; a_base ; m ; goals] with goal_steps ${goalSteps}`);
+  }
+  const resInput = obsDim + actionDim + NUM_PARTS + goalDim;
   const residual = new MlpActor(ck, 'residual', resInput, rc.residual_hidden, actionDim, act, err, 0);
   const gain = getFloat32(ck, 'residual/gain');
   const gainMode = rc.gain || 'scalar';
@@ -282,9 +298,11 @@ function loadResidual(ck, file, err, expected) {
   if ((gainMode === 'per_dof') !== (gain.length === actionDim && actionDim !== 1)) throw err('residual/gain', `has ${gain.length} entries for gain mode '${gainMode}'`);
   const offset = actionVector(ck, 'base/actor/action_offset', actionDim, err);
   const scale = actionVector(ck, 'base/actor/action_scale', actionDim, err);
-  const trainedMask = Array.isArray(rc.masks) && rc.masks.length ? rc.masks[0] : 'none';
+  // (play-residual runs a tracking policy with its designated parts adapted)
+  const trainedMask = task === 'tracking' ? designated : Array.isArray(rc.masks) && rc.masks.length ? rc.masks[0] : 'none';
   return new ResidualPolicy({
-    kind: RESIDUAL_EXPORT_KIND, file, task, method, obsDim, actionDim, baseActor, residual, gain, perDof: gain.length > 1,
+    kind: RESIDUAL_EXPORT_KIND, file, task, method, obsDim, actionDim, baseActor, residual, gain, perDof: gain.length > 1, goalDim, goalSteps, designated,
+    generatorFile: task === 'tracking' ? rc.generator : null,
     offset, scale, config: rc, trainedMask, hidden: rc.residual_hidden, baseHidden: net.actor_hidden, activationName: net.activation || 'relu',
     character: (base.env && base.env.character) || 'humanoid',
     terminationHeight: base.env ? base.env.termination_height : undefined,
@@ -297,13 +315,14 @@ export class ResidualPolicy {
   constructor(fields) {
     Object.assign(this, fields);
     this.baseIn = new Float32Array(this.obsDim + NUM_PARTS);
-    this.x = new Float32Array(this.obsDim + this.actionDim + NUM_PARTS);
+    this.x = new Float32Array(this.obsDim + this.actionDim + NUM_PARTS + this.goalDim);
     this.mu = new Float32Array(this.actionDim);
     this.targetsBuf = new Float32Array(this.actionDim);
     this.dofParts = null;
   }
   get description() {
-    return `stage 2 (${this.method}, ${this.task} of ${this.newMotions.join(', ') || 'a new motion'} on ${this.trainedMask}): residual ${this.x.length} → [${this.hidden.join(', ')}] → ${this.actionDim} on a frozen base ${this.obsDim + NUM_PARTS} → [${this.baseHidden.join(', ')}] → ${this.actionDim}` +
+    const what = this.task === 'tracking' ? `text-driven tracking with the ${this.designated} designated, ${this.goalSteps} goal frames` : `${this.task} of ${this.newMotions.join(', ') || 'a new motion'} on ${this.trainedMask}`;
+    return `stage 2 (${this.method}, ${what}): residual ${this.x.length} → [${this.hidden.join(', ')}] → ${this.actionDim} on a frozen base ${this.obsDim + NUM_PARTS} → [${this.baseHidden.join(', ')}] → ${this.actionDim}` +
       (this.iteration !== null ? `, ${this.iteration} iterations` : '');
   }
   /** Part index of every action DoF (the body part its joint moves). */
@@ -311,13 +330,17 @@ export class ResidualPolicy {
     if (dofParts.length !== this.actionDim) throw new Error(`${this.file}: ${dofParts.length} DoF parts for ${this.actionDim} actions`);
     this.dofParts = dofParts;
   }
-  /** Residual input x = [s ; a_base ; m] (a_base = the base's mean on [s̄ ; m]). */
-  residualInput(s, parts, mask) {
+  /** Residual input x = [s ; a_base ; m (; g)] (a_base = the base's mean on [s̄ ; m]; g: goal features, tracking). */
+  residualInput(s, parts, mask, goals = null) {
     buildPolicyInput(s, parts, mask, this.baseIn);
     const aBase = this.baseActor.mean(this.baseIn);
     this.x.set(s, 0);
     this.x.set(aBase, this.obsDim);
     for (let p = 0; p < NUM_PARTS; ++p) this.x[this.obsDim + this.actionDim + p] = (mask >> p) & 1;
+    if (this.goalDim > 0) {
+      if (!goals || goals.length !== this.goalDim) throw new Error(`${this.file}: the tracking residual needs ${this.goalDim} goal features, got ${goals ? goals.length : 'none'}`);
+      this.x.set(goals, this.obsDim + this.actionDim + NUM_PARTS);
+    }
     return this.x;
   }
   /** Composite mean â from a residual input x and the mask. */
@@ -333,9 +356,9 @@ export class ResidualPolicy {
   targets(a, out = new Float32Array(this.actionDim)) {
     return toTargets(a, this.offset, this.scale, out);
   }
-  act(s, parts, mask) {
+  act(s, parts, mask, goals = null) {
     if (!this.dofParts) throw new Error(`${this.file}: setDofParts was not called`);
-    const x = this.residualInput(s, parts, mask);
+    const x = this.residualInput(s, parts, mask, goals);
     return this.targets(this.compose(x, mask), this.targetsBuf);
   }
 }
