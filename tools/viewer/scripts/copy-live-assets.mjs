@@ -1,6 +1,6 @@
 // Copies what the live page loads at run time into public/live/ (Vite serves public/ in dev and
 // copies it into dist/): the model manifest and the characters (tools/viewer/live/), the models it
-// lists (../../models/), and the characters' MJCF (../../assets/). Nothing is downloaded.
+// lists and the generator of its tracking models (../../models/, with tracking_<character>.json), and the characters' MJCF (../../assets/). Nothing is downloaded.
 // Run by `npm run build` / `npm run dev` (prebuild / predev); fails naming a missing file.
 import fs from 'node:fs';
 import path from 'node:path';
@@ -29,10 +29,14 @@ for (const name of characters) {
   const ch = JSON.parse(fs.readFileSync(file, 'utf8'));
   copy(path.join(repo, 'assets', ch.mjcf), path.join(out, ch.mjcf));
 }
+// tracking models: their generator, and the character's tracking data (skeleton, histories)
+for (const name of new Set(manifest.models.filter((m) => m.generator).map((m) => m.character)))
+  copy(path.join(viewer, 'live', `tracking_${name}.json`), path.join(out, `tracking_${name}.json`));
 let bytes = 0;
-for (const m of manifest.models) {
-  fs.mkdirSync(path.dirname(path.join(out, m.file)), { recursive: true });
-  copy(path.join(repo, m.file), path.join(out, m.file));
-  bytes += fs.statSync(path.join(out, m.file)).size;
+const files = new Set(manifest.models.flatMap((m) => (m.generator ? [m.file, m.generator] : [m.file])));
+for (const file of files) {
+  fs.mkdirSync(path.dirname(path.join(out, file)), { recursive: true });
+  copy(path.join(repo, file), path.join(out, file));
+  bytes += fs.statSync(path.join(out, file)).size;
 }
 console.log(`copy-live-assets: ${manifest.models.length} models (${(bytes / 1e6).toFixed(1)} MB), ${characters.size} characters → ${path.relative(repo, out)}`);

@@ -11,8 +11,18 @@
 // play: a fall begins on a step where has_fallen (sim/termination.hpp: a ground contact of a body
 // not allowed to touch the ground, or the head below the model's env.termination_height) becomes
 // true; the run goes on (no reset), as in play without --reset-on-fall.
-import { computeObservation, observationDim, observationParts, PART_NAMES } from './features.js';
+//
+// Tracking (a stage-2 policy of task 'tracking' with setTracking): every step also asks the target
+// stream (tracking.js) for the goal features of target frames t+1 … t+goal_steps — the generator
+// (generator.js) adds a primitive of F frames when they do not exist yet, with the prompt active
+// then — and, after the physics step, measures the tracking error against target frame t+1, as
+// play-residual does.
+import { computeObservation, observationDim, observationParts, parseMask, PART_NAMES } from './features.js';
+import { trajectoryFromJson } from './kinematics.js';
+import { Rng } from './rng.js';
 import { LiveSim } from './sim.js';
+import { designatedBodies, goalDim, positionError, TargetStream, targetsAtRoot } from './tracking.js';
+import { tokenizeWords } from './textFeatures.js';
 
 export function fallCriteria(character, minHeadHeight) {
   const names = character.bodies.map((b) => b.name);
@@ -62,7 +72,37 @@ export class LiveSession {
     if (policy.setDofParts) policy.setDofParts(this.sim.dofBody.map((b) => this.parts0[b]));
     this.mask = 0;
     this.startIndex = 0;
+    this.tracking = null;
     this.reset(0);
+  }
+
+  /**
+   * Makes this a tracking run: `generator` (generator.js), `trackingChar` (tracking_humanoid.json:
+   * the skeleton and each start's history), the first prompt and the seed of the diffusion noise.
+   */
+  setTracking(generator, trackingChar, prompt, seed = 1) {
+    const p = this.policy;
+    if (p.task !== 'tracking') throw new Error(`${p.file}: not a tracking policy (task '${p.task}')`);
+    if (trackingChar.character !== this.character.name) throw new Error(`tracking data is for '${trackingChar.character}', the character is '${this.character.name}'`);
+    const bodies = designatedBodies(this.parts0, parseMask(this.policy.designated));
+    if (goalDim(bodies, p.goalSteps) !== p.goalDim)
+      throw new Error(`${p.file}: its residual reads ${p.goalDim} goal rows; ${p.goalSteps} goal frames of the ${bodies.length} designated bodies make ${goalDim(bodies, p.goalSteps)}`);
+    const histories = this.character.starts.map((st) => {
+      const h = trackingChar.starts.find((x) => x.label === st.label);
+      if (!h) throw new Error(`tracking_${this.character.name}.json: no history for the start '${st.label}'`);
+      return trajectoryFromJson(generator.skel, h.history);
+    });
+    checkPrompt(prompt);
+    this.tracking = { generator, histories, bodies, seed, prompt, goals: new Float32Array(p.goalDim) };
+    this.reset(this.startIndex);
+  }
+
+  /** Switches the prompt from now on (primitives that start at or after the current time). */
+  setPrompt(prompt) {
+    if (!this.tracking) throw new Error('not a tracking run');
+    checkPrompt(prompt);
+    this.tracking.prompt = prompt;
+    this.tracking.stream.setPrompt(this.time, prompt);
   }
 
   dispose() {
@@ -88,6 +128,16 @@ export class LiveSession {
     this.rootTrail = [[0, this.origin[0], this.origin[1]]];
     this.maskLog = [[0, this.mask]];
     this.stepMs = 0;
+    const tr = this.tracking;
+    if (tr) {
+      tr.stream = new TargetStream(tr.generator, tr.histories[startIndex], new Rng(tr.seed), tr.prompt);
+      tr.error = null;
+      tr.errorSum = 0;
+      tr.errorSteps = 0;
+      tr.generateMsSum = 0;
+      tr.generateMsMax = 0;
+      tr.generateCalls = 0;
+    }
   }
 
   setMask(bits) {
@@ -101,7 +151,24 @@ export class LiveSession {
     const t0 = typeof performance !== 'undefined' ? performance.now() : Date.now();
     const s = this.sim.states;
     computeObservation(s, this.sim.nb, this.obs);
-    this.sim.step(this.policy.act(this.obs, this.parts, this.mask));
+    const tr = this.tracking;
+    let goals = null;
+    if (tr) {
+      const before = tr.stream.primitives.length;
+      goals = tr.stream.goals(this.steps, tr.bodies, this.policy.goalSteps, tr.goals);
+      for (const p of tr.stream.primitives.slice(before)) {
+        tr.generateMsSum += p.ms;
+        tr.generateMsMax = Math.max(tr.generateMsMax, p.ms);
+        ++tr.generateCalls;
+      }
+    }
+    this.sim.step(this.policy.act(this.obs, this.parts, this.mask, goals));
+    if (tr) {
+      tr.error = positionError(tr.generator.skel, tr.bodies, tr.stream.view(this.steps + 1), 0, s);
+      tr.errorSum += tr.error;
+      ++tr.errorSteps;
+      tr.stream.release(this.steps);
+    }
     ++this.steps;
     this.time = this.steps * this.controlDt;
     const fallen = hasFallen(this.fall, s, this.sim.contacts);
@@ -143,8 +210,43 @@ export class LiveSession {
     return this.stepMs > 0 ? (this.controlDt * 1000) / this.stepMs : 0;
   }
 
+  /**
+   * Tracking: world positions of the designated bodies' targets for the next `frames` target frames
+   * that exist (from the current one), placed at the simulated root as play-residual writes them.
+   */
+  goalTargets(frames = 30) {
+    const tr = this.tracking;
+    if (!tr) return null;
+    const first = this.steps;  // target frame of the current state (t), the next the policy aims at
+    const have = tr.stream.frames - first;
+    const out = [];
+    if (have <= 0) return { bodies: tr.bodies, targets: out };
+    const v = tr.stream.view(first);
+    for (let k = 0; k < Math.min(frames, have); ++k) out.push(targetsAtRoot(tr.generator.skel, tr.bodies, v, k, this.sim.states));
+    return { bodies: tr.bodies, targets: out };
+  }
+
+  trackingSummary() {
+    const tr = this.tracking;
+    if (!tr) return null;
+    return {
+      prompt: tr.prompt,
+      promptLog: tr.stream.log.map(([t, p]) => ({ t, prompt: p })),
+      primitives: tr.stream.primitives.length,
+      primitiveTexts: tr.stream.primitives.map((p) => p.text),
+      goalFrames: tr.stream.frames,
+      trackingError: tr.error,
+      meanTrackingError: tr.errorSteps ? tr.errorSum / tr.errorSteps : null,
+      generateMs: tr.generateCalls ? tr.generateMsSum / tr.generateCalls : null,
+      generateMsMax: tr.generateCalls ? tr.generateMsMax : null,
+      generateCalls: tr.generateCalls,
+      seed: tr.seed,
+    };
+  }
+
   summary() {
     return {
+      tracking: this.trackingSummary(),
       time: this.time,
       steps: this.steps,
       distance: this.distance,
@@ -158,4 +260,11 @@ export class LiveSession {
       stepMs: this.stepMs,
     };
   }
+}
+
+/** A prompt must have a word (letters or digits): one without would make the generator unconditional. */
+export function checkPrompt(prompt) {
+  if (typeof prompt !== 'string' || !tokenizeWords(prompt).length)
+    throw new Error(`the prompt ${JSON.stringify(String(prompt ?? ''))} has no words (letters or digits): type what the arms should do, e.g. "wave right hand"`);
+  if (prompt.length > 200) throw new Error(`the prompt is ${prompt.length} characters long; at most 200`);
 }
