@@ -10,6 +10,11 @@
 //  - clicking both legs' checkboxes masks them (their bodies take the leg colours, on screen too),
 //    Reset, 10 simulated seconds: the mask-invariant base walks >= 5 m without a fall;
 //  - the AMP base picked in the model list, same start and mask: it falls;
+//  - the text-driven tracking policy picked in the model list: a prompt typed into the box, 3
+//    simulated seconds, a training prompt picked from the list mid-walk, 3 s more — goals were
+//    generated with both prompts, drawn (state and green pixels), the tracking error is finite;
+//    an empty prompt and a corrupt generator file show errors naming them; the browser's mean
+//    tracking error over 10 s for three prompts next to native_tracking_ours_s1.json;
 //  - the G1 robot's model loads with its MJCF and runs;
 //  - a corrupt model file opened with the file picker shows an error naming the file;
 // and saves screenshots into DIR. With --table it also measures distance/falls in the browser for
@@ -50,7 +55,7 @@ if (!fs.existsSync(CHROMIUM)) skip(`Chromium not found at ${CHROMIUM} (install D
 for (const dep of ['playwright-core', 'vite', 'mujoco-js'])
   if (!fs.existsSync(path.join(root, 'node_modules', dep))) skip(`node_modules/${dep} missing in ${root} (run scripts/setup-viewer.sh)`);
 
-const { PART_COLORS, BASE_COLOR } = await import('../src/colors.js');
+const { PART_COLORS, BASE_COLOR, GOAL_COLOR } = await import('../src/colors.js');
 
 // ---- build ----------------------------------------------------------------------------------
 const dist = path.join(outDir, 'dist');
@@ -155,6 +160,79 @@ try {
     `unticking both arms at 5 s switches the residual off mid-stride: ${swimOn.distance.toFixed(2)} m and ${swimOn.falls} falls after 5 s with the swim, ${s.distance.toFixed(2)} m and ${s.falls} falls after 10 s`);
   await page.screenshot({ path: path.join(outDir, 'live-stage2-switched-off.png') });
 
+  // Text-driven partial tracking: the tracking policy, a typed prompt, a picked prompt mid-walk.
+  await page.selectOption('#live-model', 'tracking_ours_s1');
+  await page.waitForFunction(() => window.__liveState && window.__liveState.model === 'tracking_ours_s1', null, { timeout: 60000 });
+  check(await page.isVisible('#live-prompt'), 'the tracking policy shows the prompt box');
+  const pool = await page.$$eval('#live-prompt-pick option', (o) => o.map((x) => x.value).filter(Boolean));
+  check(pool.length >= 10 && pool.includes('arms high'), `the training prompts are offered as a pick list (${pool.length}: ${pool.slice(0, 4).join(', ')}, …)`);
+  s = await live(() => window.__live.reset(0));
+  check(s.tracking && s.maskText === 'left_arm,right_arm', `the tracking policy runs with its designated arms adapted (${s.maskText})`);
+  await page.fill('#live-prompt', 'punch');
+  await page.press('#live-prompt', 'Enter');
+  s = await live(() => window.__live.state());
+  check(s.tracking.prompt === 'punch' && !s.error, 'a prompt typed into the box and Enter: "punch"');
+  s = await live(() => window.__live.runSeconds(3));
+  const tr3 = s.tracking;
+  check(tr3.primitives >= 6 && tr3.goalFrames >= 90 && tr3.primitiveTexts.every((t) => t === 'punch'),
+    `3 s: ${tr3.primitives} goal primitives generated from "punch" (${tr3.goalFrames} target frames), ${tr3.generateMs.toFixed(1)} ms per generate in Chromium (max ${tr3.generateMsMax.toFixed(1)})`);
+  check(Number.isFinite(tr3.trackingError) && Number.isFinite(tr3.meanTrackingError),
+    `tracking error is finite: now ${tr3.trackingError.toFixed(3)} m, mean ${tr3.meanTrackingError.toFixed(3)} m; ${s.falls} falls, ${s.distance.toFixed(2)} m`);
+  check(s.goalsDrawn >= 2 && s.goalSpheres.length === 8, `the goals are drawn: ${s.goalSpheres.length} target spheres, a line through ${s.goalsDrawn} target frames`);
+  await page.selectOption('#live-prompt-pick', 'arms high');
+  s = await live(() => window.__live.state());
+  check(s.tracking.prompt === 'arms high', 'a training prompt picked from the list mid-walk (at 3 s): "arms high"');
+  s = await live(() => window.__live.runSeconds(3));
+  const texts = s.tracking.primitiveTexts;
+  check(texts.includes('arms high') && texts[0] === 'punch' && Number.isFinite(s.tracking.meanTrackingError),
+    `6 s: primitives ${texts.filter((t) => t === 'punch').length}× "punch" then ${texts.filter((t) => t === 'arms high').length}× "arms high"; tracking error now ${s.tracking.trackingError.toFixed(3)} m, mean ${s.tracking.meanTrackingError.toFixed(3)} m; ${s.falls} falls`);
+  await page.screenshot({ path: path.join(outDir, 'live-tracking.png') });
+  const goalShare = await page.evaluate((hex) => {
+    const src = document.querySelector('#live-view canvas');
+    const c = document.createElement('canvas');
+    c.width = src.width;
+    c.height = src.height;
+    const ctx = c.getContext('2d');
+    ctx.drawImage(src, 0, 0);
+    const d = ctx.getImageData(0, 0, c.width, c.height).data;
+    const t = [1, 3, 5].map((i) => parseInt(hex.slice(i, i + 2), 16));
+    let hits = 0;
+    for (let i = 0; i < d.length; i += 4) if (Math.abs(d[i] - t[0]) + Math.abs(d[i + 1] - t[1]) + Math.abs(d[i + 2] - t[2]) < 60) ++hits;
+    return hits / (d.length / 4);
+  }, GOAL_COLOR);
+  check(goalShare > 0.0002, `rendered pixels show the green goal targets (${(100 * goalShare).toFixed(3)}% of the view)`);
+  await page.fill('#live-prompt', '  ?! ');
+  await page.click('#live-prompt-apply');
+  const promptErr = await page.textContent('#live-error');
+  s = await live(() => window.__live.state());
+  check(/has no words/.test(promptErr) && s.tracking.prompt === 'arms high', `an empty prompt is refused in the page: "${promptErr}"`);
+  await page.screenshot({ path: path.join(outDir, 'live-tracking-empty-prompt.png') });
+  const badGen = Buffer.from(fs.readFileSync(path.join(repo, 'models/text_generator.bin')));
+  badGen[200000] ^= 0xff;
+  await page.setInputFiles('#live-generator-file', { name: 'broken_generator.bin', mimeType: 'application/octet-stream', buffer: badGen });
+  await page.waitForFunction(() => /broken_generator/.test(document.getElementById('live-error').textContent));
+  const genErr = await page.textContent('#live-error');
+  s = await live(() => window.__live.runSeconds(0.5));
+  check(/broken_generator\.bin: checksum mismatch/.test(genErr) && Number.isFinite(s.tracking.trackingError),
+    `a corrupt generator file shows an error naming it and the run goes on with the loaded generator: "${genErr}"`);
+  // Browser vs native (the same start, seed and loop natively: live_tracking_reference.cpp --native).
+  const nativeTracking = JSON.parse(fs.readFileSync(path.join(root, 'live/native_tracking_ours_s1.json'), 'utf8')).runs;
+  const trackingTable = [];
+  for (const n of nativeTracking) {
+    const r = await live((prompt) => {
+      window.__live.setPrompt(prompt);
+      window.__live.reset(0);
+      return window.__live.runSeconds(10);
+    }, n.prompt);
+    trackingTable.push({ prompt: n.prompt, browser_mean_tracking_error_m: r.tracking.meanTrackingError, browser_falls: r.falls, browser_distance_m: r.distance,
+      browser_generate_ms: r.tracking.generateMs, browser_generate_ms_max: r.tracking.generateMsMax, browser_step_ms: r.stepMs,
+      native_mean_tracking_error_m: n.mean_tracking_error_m, native_falls: n.falls, native_distance_m: n.distance_m });
+    console.log(`   tracking "${n.prompt}", 10 s from ${n.start}, seed 1: browser ${r.tracking.meanTrackingError.toFixed(4)} m mean error, ${r.falls} falls, ${r.distance.toFixed(2)} m, ` +
+      `${r.tracking.generateMs.toFixed(1)} ms/generate (max ${r.tracking.generateMsMax.toFixed(1)}, ${r.tracking.generateCalls} calls) | native ${n.mean_tracking_error_m.toFixed(4)} m, ${n.falls} falls, ${n.distance_m.toFixed(2)} m`);
+  }
+  check(trackingTable.every((r) => Number.isFinite(r.browser_mean_tracking_error_m)), 'browser tracking error over 10 s for three prompts (vs native above)');
+  fs.writeFileSync(path.join(outDir, 'live_tracking_browser.json'), JSON.stringify({ chromium: await page.evaluate(() => navigator.userAgent), runs: trackingTable }, null, 1));
+
   // G1.
   await page.selectOption('#live-model', 'g1_mask_mi_walk_bandai');
   await page.waitForFunction(() => window.__liveState && window.__liveState.character === 'g1');
@@ -202,7 +280,7 @@ try {
   for (const r of table)
     console.log(`   ${r.model} | ${r.start} | ${r.mask} | ${r.browser_distance_m.toFixed(2)} m, ${r.browser_falls} | ${r.native_distance_m?.toFixed(2)} m, ${r.native_falls}`);
   }
-  const errors = page.errors.filter((e) => !/broken_model|cut_model/.test(e));
+  const errors = page.errors.filter((e) => !/broken_model|cut_model|broken_generator|live: prompt: /.test(e));
   check(errors.length === 0, `no page errors${errors.length ? `: ${errors.join(' | ')}` : ''}`);
   console.log(`PASS (screenshots and live_browser.json in ${outDir})`);
 } finally {
