@@ -286,6 +286,38 @@ TEST(ResidualPolicy, WiderResidualSigmaKeepsTheBaseMeanAndScalesOnlyTheMaskedNoi
   }
 }
 
+TEST(ResidualPolicy, PerPartSigmaOverridesInitStdOnThatPartsDofsOnly) {
+  Rng rng(5);
+  adapt::ResidualConfig rc;
+  rc.hidden = {16};
+  rc.init_std = 0.2;                                              // every adapted DoF …
+  rc.part_std[static_cast<std::size_t>(BodyPart::LeftArm)] = 0.4;  // … but the left arm's
+  rc.part_std[static_cast<std::size_t>(BodyPart::RightLeg)] = 0.05;
+  const adapt::ResidualPolicy<float> pol(make_base(rng), kObs, dof_parts(), rc, rng);
+  const std::vector<PartMask> masks = {PartMask::all(), PartMask::of(BodyPart::Trunk)};
+  MatrixXf ls;
+  pol.log_std(masks, ls);
+  const float sigma_base = std::exp(-1.3f);
+  for (Index i = 0; i < kAct; ++i) {
+    const BodyPart p = dof_parts()[static_cast<std::size_t>(i)];
+    const float want = p == BodyPart::LeftArm ? 0.4f : p == BodyPart::RightLeg ? 0.05f : 0.2f;
+    EXPECT_NEAR(std::exp(ls(i, 0)), want, 1e-6f) << i;                                  // every part adapted
+    EXPECT_NEAR(std::exp(ls(i, 1)), p == BodyPart::Trunk ? 0.2f : sigma_base, 1e-6f) << i;  // the trunk only
+  }
+  // bad values name the part's field
+  for (const double bad : {-0.1, std::numeric_limits<double>::quiet_NaN()}) {
+    adapt::ResidualConfig b = rc;
+    b.part_std[static_cast<std::size_t>(BodyPart::RightArm)] = bad;
+    Rng r(1);
+    try {
+      adapt::ResidualPolicy<float>(make_base(r), kObs, dof_parts(), b, r);
+      ADD_FAILURE() << "part_std " << bad << " accepted";
+    } catch (const Error& e) {
+      EXPECT_NE(std::string(e.what()).find("residual.part_std.right_arm"), std::string::npos) << e.what();
+    }
+  }
+}
+
 // ---- composition data ----------------------------------------------------------------------
 
 TEST(Composition, BlendedRealSamplesTakeBOnMaskedPartsAndAElsewhere) {

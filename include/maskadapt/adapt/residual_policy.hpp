@@ -50,6 +50,7 @@
 #include <maskadapt/rl/actor_critic.hpp>
 #include <maskadapt/tasks/action_space.hpp>  // (core-only header: actions → PD targets)
 
+#include <array>
 #include <cmath>
 #include <numbers>
 #include <span>
@@ -80,6 +81,10 @@ struct ResidualConfig {
   /// trained with AMP's fixed σ ≈ 0.055 explores a new motion of large amplitude (arm circles)
   /// only slowly; a wider σ_ψ lets the residual find it (docs/training.md, "Residual σ").
   double init_std = 0.0;
+  /// σ_ψ per body part (base action units), overriding `init_std` on that part's DoFs; 0 leaves
+  /// the part at `init_std` (or the base's σ). Lets the residual explore a composed motion wide
+  /// (the arms' swim) while the legs that carry the walker explore narrowly.
+  std::array<double, kNumParts> part_std{};
   Index goal_dim = 0;        ///< extra goal features g appended to the residual input (tracking)
   bool normalize_inputs = true;
   /// true: the base sees the masked observation [s̄ ; m] (ours: the mask-invariant base ignores
@@ -151,6 +156,9 @@ class ResidualPolicy {
     require(std::isfinite(cfg_.init_gain), "init_gain must be finite", {{}, {}, "residual.init_gain"});
     require(std::isfinite(cfg_.init_std) && cfg_.init_std >= 0, "init_std must be finite and ≥ 0 (0 = the base's σ)",
             {{}, {}, "residual.init_std"});
+    for (int p = 0; p < kNumParts; ++p)
+      require(std::isfinite(cfg_.part_std[static_cast<std::size_t>(p)]) && cfg_.part_std[static_cast<std::size_t>(p)] >= 0,
+              "must be finite and ≥ 0 (0 = init_std)", {{}, {}, "residual.part_std." + std::string(kPartNames[static_cast<std::size_t>(p)])});
     rl::ActorCriticConfig ac;
     ac.policy_input_dim = input_dim();
     ac.critic_input_dim = input_dim();
@@ -162,6 +170,10 @@ class ResidualPolicy {
     res_ = rl::GaussianActor<T>(ac, rng);
     res_.log_std.params() = base_.log_std.params();  // σ_ψ = σ_base at step 0 …
     if (cfg_.init_std > 0) res_.log_std.params().setConstant(static_cast<T>(std::log(cfg_.init_std)));  // … or as asked
+    for (Index i = 0; i < A; ++i) {  // … or per part
+      const double sp = cfg_.part_std[static_cast<std::size_t>(dof_parts_[static_cast<std::size_t>(i)])];
+      if (sp > 0) res_.log_std.params()[i] = static_cast<T>(std::log(sp));
+    }
     zero_output_layer();
     gain_ = nn::ParameterBlock<T>(cfg_.gain == GainMode::PerDof ? A : 1);
     gain_.params().setConstant(static_cast<T>(cfg_.init_gain));
