@@ -83,6 +83,35 @@ TEST(LocationTask, FacingShapingMixesTheHalfCosineOfTheTargetsBearingOutsideTheR
   }
 }
 
+TEST(LocationTask, PositionShapingAddsAsesDistanceKernelOutsideTheRadius) {
+  tasks::LocationConfig c;  // R 0.5 m, v* 1 m/s, k 4, k_p 0.5
+  c.facing_weight = 0.5;
+  c.position_weight = 0.25;
+  const double bearing = std::atan2(0.8, 0.6);
+  const Vec3 target(3, 4, 0);
+  // 5 m away, facing it, walking at v* toward it: 0.25·1 + 0.5·1 + 0.25·e^(−0.5·25)
+  EXPECT_NEAR(tasks::location_reward(Vec3(0, 0, 0.9), yaw(bearing), Vec3(0.6, 0.8, 0), target, c),
+              0.25 + 0.5 + 0.25 * std::exp(-12.5), 1e-12);
+  // 1 m away (the root at (2.4, 3.2)), standing, facing away: 0.25·e^−4 + 0 + 0.25·e^−0.5
+  EXPECT_NEAR(tasks::location_reward(Vec3(2.4, 3.2, 0.9), yaw(bearing + M_PI), Vec3::Zero(), target, c),
+              0.25 * std::exp(-4.0) + 0.25 * std::exp(-0.5), 1e-12);
+  // passing the target abeam at 1 m pays less than at 0.6 m, all else equal
+  const Vec3 v(1.2, 0, 0);
+  EXPECT_GT(tasks::location_reward(Vec3(3, 3.4, 0.9), yaw(0), v, target, c),
+            tasks::location_reward(Vec3(3, 3.0, 0.9), yaw(0), v, target, c));
+  // inside R: 1
+  EXPECT_EQ(tasks::location_reward(Vec3(3.3, 4.0, 0.9), yaw(0), Vec3::Zero(), target, c), 1.0);
+  // p = 0 leaves the facing-shaped reward unchanged
+  tasks::LocationConfig f = c;
+  f.position_weight = 0;
+  EXPECT_NEAR(tasks::location_reward(Vec3(2.4, 3.2, 0.9), yaw(bearing + M_PI), Vec3::Zero(), target, f),
+              0.5 * std::exp(-4.0), 1e-12);
+  for (const double bad : {-0.1, 0.6, std::nan("")}) {  // (0.6 + the facing 0.5 > 1)
+    c.position_weight = bad;
+    expect_error_naming([&] { c.validate(); }, "location.position_weight", "position_weight " + std::to_string(bad));
+  }
+}
+
 TEST(LocationTask, GoalIsDirectionSpeedDistanceInTheHeadingFrame) {
   tasks::LocationConfig c;
   c.speed = 1.2;
@@ -123,6 +152,62 @@ TEST(LocationTask, CharacterAtTheTargetGetsOneAndSucceeds) {
   task.after_step(sim, 1, true);  // the episode ended before env 1 reached its new target: a failure
   EXPECT_EQ(task.trials().trials, 3);
   EXPECT_EQ(task.trials().successes, 1);
+}
+
+// CML's divergence termination: the episode ends, the trial failed unless the target was reached,
+// once the root is more than D farther from the target than when it was drawn; D = 0 never ends it.
+TEST(LocationTask, DivergenceEndsTheEpisodeOnceTheTargetIsDFartherThanWhenDrawn) {
+  TinyWalkerSim sim(1);
+  auto put_root = [&](double x, double y) {
+    KinematicState s = KinematicState::zero(sim.skeleton());
+    s.root_pos = Vec3(x, y, s.root_pos.z());
+    sim.reset(0, s);
+  };
+  tasks::LocationConfig c;
+  c.divergence_distance = 2.0;
+  tasks::LocationTask task(c, 1);
+  put_root(0, 0);
+  task.new_episode(sim, 0);
+  const Vec3 t = task.target(0);
+  const double d0 = std::hypot(t.x(), t.y());  // the distance when drawn, in [1, 5] m
+  const Vec3 away = -Vec3(t.x(), t.y(), 0) / d0;  // from the target through the start
+  put_root(1.9 * away.x(), 1.9 * away.y());        // d0 + 1.9: goes on
+  EXPECT_FALSE(task.after_step(sim, 0, false).terminate);
+  put_root(2.1 * away.x(), 2.1 * away.y());        // d0 + 2.1: ends, a failed trial
+  EXPECT_TRUE(task.after_step(sim, 0, false).terminate);
+  EXPECT_EQ(task.trials().trials, 1);
+  EXPECT_EQ(task.trials().successes, 0);
+  // reached first, then walked off: the episode still ends, the trial succeeded
+  put_root(0, 0);
+  task.new_episode(sim, 0);
+  const Vec3 t2 = task.target(0);
+  put_root(t2.x(), t2.y());
+  EXPECT_FALSE(task.after_step(sim, 0, false).terminate);
+  const double d2 = std::hypot(t2.x(), t2.y());
+  put_root(-t2.x() / d2 * 2.5, -t2.y() / d2 * 2.5);
+  EXPECT_TRUE(task.after_step(sim, 0, false).terminate);
+  EXPECT_EQ(task.trials().trials, 2);
+  EXPECT_EQ(task.trials().successes, 1);
+  // the distance at the draw travels in the checkpoint
+  put_root(0, 0);
+  task.new_episode(sim, 0);
+  Checkpoint ck;
+  task.save(ck, "loc/");
+  tasks::LocationTask back(c, 1);
+  back.load(ck, "loc/");
+  const Vec3 t3 = back.target(0);
+  const double d3 = std::hypot(t3.x(), t3.y());
+  put_root(-t3.x() / d3 * 2.1, -t3.y() / d3 * 2.1);
+  EXPECT_TRUE(back.after_step(sim, 0, false).terminate);
+  // D = 0 (the paper's task): never
+  tasks::LocationTask never(tasks::LocationConfig{}, 1);
+  put_root(0, 0);
+  never.new_episode(sim, 0);
+  put_root(-40 * never.target(0).x(), -40 * never.target(0).y());
+  EXPECT_FALSE(never.after_step(sim, 0, false).terminate);
+  tasks::LocationConfig bad;
+  bad.divergence_distance = -1;
+  expect_error_naming([&] { bad.validate(); }, "location.divergence_distance", "a negative D");
 }
 
 // ---- heading ---------------------------------------------------------------------------------------

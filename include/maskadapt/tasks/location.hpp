@@ -13,14 +13,24 @@
 ///    (1 − w)·exp(−k·(v* − d·v_root)²) + w·(1 + f·d)/2, f the root's facing direction on the
 ///    ground. The paper's term is ≈ 0 whenever the target is more than ≈ 90° off the walking
 ///    direction (d·v ≤ 0 ⇒ exp(−4) ≈ 0.02 for v* = 1 m/s), so half of all targets give no gradient
-///    toward turning; (1 + f·d)/2 rises from 0 (target behind) to 1 (target ahead) everywhere;
+///    toward turning; (1 + f·d)/2 rises from 0 (target behind) to 1 (target ahead) everywhere.
+///    With `position_weight` p > 0 as well (not the paper's; ASE's position term):
+///    (1 − w − p)·exp(−k·(v* − d·v_root)²) + w·(1 + f·d)/2 + p·exp(−k_p·‖Δxy‖²), k_p = 0.5 /m².
+///    A walker that heads for its target but cannot aim within R passes it by at full speed and
+///    loops back (measured: docs/results.md, "Stage 2 recipe"); the velocity and facing terms
+///    stay near 1 on such a pass until the target is abeam, while the position term pays for the
+///    metres closer it gets;
 ///  - goal observation g ∈ R⁴: d in the root's heading frame (2), v* (1), distance (1, m);
 ///  - success: the root comes within R of the target while the trial's goal is held;
 ///  - schedule: a new target every `schedule` steps (uniform), drawn at a uniform angle and a
-///    distance in [min_distance, max_distance] from the root; a trial is one target.
+///    distance in [min_distance, max_distance] from the root; a trial is one target;
+///  - divergence termination (not the paper's; CML's location task ends its episodes so): with
+///    `divergence_distance` D > 0 the episode ends, its trial failed unless the target was already
+///    reached, once the root is more than D farther from the target than when it was drawn.
 #include <maskadapt/tasks/goal_task.hpp>
 
 #include <cmath>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -31,8 +41,11 @@ struct LocationConfig {
   double speed = 1.0;           ///< v* (m/s)
   double velocity_scale = 4.0;  ///< k (s²/m²)
   double facing_weight = 0.0;   ///< w of the facing shaping term (0: the paper's reward)
+  double position_weight = 0.0; ///< p of the position shaping term (0: the paper's reward)
+  double position_scale = 0.5;  ///< k_p (1/m², ASE's)
   double min_distance = 1.0, max_distance = 5.0;  ///< target distance from the root when drawn (m)
   GoalSchedule schedule{150, 300};                ///< steps a target is held (5–10 s at 30 Hz)
+  double divergence_distance = 0.0;  ///< D (m): end the episode when the target is D farther than when drawn; 0 = never (CML: 3)
   std::uint64_t seed = 1;
   /// Global index of env 0: env e draws from the stream of env first_env + e (a distributed run's
   /// rank offset, so each env has its one-process stream; train/distributed.hpp).
@@ -43,9 +56,14 @@ struct LocationConfig {
             {{}, {}, "location"});
     require(std::isfinite(facing_weight) && facing_weight >= 0 && facing_weight <= 1, "must be in [0, 1]",
             {{}, {}, "location.facing_weight"});
+    require(std::isfinite(position_weight) && position_weight >= 0 && facing_weight + position_weight <= 1,
+            "must be >= 0, with facing_weight + position_weight <= 1", {{}, {}, "location.position_weight"});
+    require(std::isfinite(position_scale) && position_scale > 0, "must be > 0", {{}, {}, "location.position_scale"});
     require(min_distance > 0 && max_distance >= min_distance, "need 0 < min_distance <= max_distance",
             {{}, {}, "location.distance"});
     schedule.validate("location.schedule");
+    require(std::isfinite(divergence_distance) && divergence_distance >= 0, "must be finite and >= 0 (0 = never)",
+            {{}, {}, "location.divergence_distance"});
   }
 };
 
@@ -56,14 +74,16 @@ inline double location_reward(const Vec3& root_pos, const Vec3& root_vel, const 
   return speed_toward_reward(to.direction, root_vel, c.speed, c.velocity_scale);
 }
 
-/// The reward with the facing shaping term (see the file comment); `root_rot` gives the facing.
-/// facing_weight = 0 is exactly the paper's reward above.
+/// The reward with the facing and position shaping terms (see the file comment); `root_rot` gives
+/// the facing. facing_weight = position_weight = 0 is exactly the paper's reward above.
 inline double location_reward(const Vec3& root_pos, const Quat& root_rot, const Vec3& root_vel, const Vec3& target,
                               const LocationConfig& c) {
   const GroundBearing to = ground_bearing(root_pos, target);
   if (to.distance <= c.radius) return 1.0;
-  return (1 - c.facing_weight) * speed_toward_reward(to.direction, root_vel, c.speed, c.velocity_scale) +
-         c.facing_weight * facing_toward_reward(root_rot, to.direction);
+  return (1 - c.facing_weight - c.position_weight) *
+             speed_toward_reward(to.direction, root_vel, c.speed, c.velocity_scale) +
+         c.facing_weight * facing_toward_reward(root_rot, to.direction) +
+         c.position_weight * std::exp(-c.position_scale * to.distance * to.distance);
 }
 
 /// g ∈ R⁴ = [d in the heading frame (2), v*, distance].
@@ -82,6 +102,7 @@ class LocationTask {
   LocationTask(LocationConfig c, Index num_envs) : c_((c.validate(), c)), rngs_(env_streams(c_.seed, 0x10CA7000ULL, num_envs, c_.first_env)) {
     const auto n = static_cast<std::size_t>(num_envs);
     target_.assign(n, Vec3::Zero());
+    start_distance_.assign(n, 0.0);
     steps_left_.assign(n, 0);
     reached_.assign(n, 0);
     last_reward_.assign(n, 0.0f);
@@ -113,6 +134,10 @@ class LocationTask {
     Vec3 to = target_[u] - p;
     to.z() = 0;
     if (to.norm() <= c_.radius) reached_[u] = 1;
+    if (c_.divergence_distance > 0 && to.norm() > start_distance_[u] + c_.divergence_distance) {
+      trials_.add(reached_[u] != 0);  // the episode ends here; new_episode draws the next target
+      return {last_reward_[u], true};
+    }
     if (--steps_left_[u] <= 0) {
       trials_.add(reached_[u] != 0);
       draw_target(p, e);
@@ -126,6 +151,7 @@ class LocationTask {
   /// Places env e's target (tests, play schedules); the trial restarts.
   void set_target(Index e, const Vec3& t, Index steps) {
     target_[idx(e)] = t;
+    start_distance_[idx(e)] = std::numeric_limits<double>::infinity();  // (no root here: no divergence test)
     steps_left_[idx(e)] = steps;
     reached_[idx(e)] = 0;
   }
@@ -135,8 +161,10 @@ class LocationTask {
     MatrixXd t(3, n);
     VectorX<std::int64_t> s(n), r(n);
     VectorXf lr(n);
+    VectorXd sd(n);
     for (Index e = 0; e < n; ++e) {
       t.col(e) = target_[idx(e)];
+      sd[e] = start_distance_[idx(e)];
       s[e] = steps_left_[idx(e)];
       r[e] = reached_[idx(e)];
       lr[e] = last_reward_[idx(e)];
@@ -145,6 +173,7 @@ class LocationTask {
     c.put(prefix + "steps_left", s);
     c.put(prefix + "reached", r);
     c.put(prefix + "last_reward", lr);
+    c.put(prefix + "start_distance", sd);
     save_streams(c, prefix, rngs_);
   }
   void load(const Checkpoint& c, const std::string& prefix) {
@@ -153,12 +182,16 @@ class LocationTask {
     const auto s = c.get_vector<std::int64_t>(prefix + "steps_left", n);
     const auto r = c.get_vector<std::int64_t>(prefix + "reached", n);
     const auto lr = c.get_vector<float>(prefix + "last_reward", n);
+    // (absent in checkpoints written before the divergence test existed: no test until the next target)
+    const VectorXd sd = c.contains(prefix + "start_distance") ? c.get_vector<double>(prefix + "start_distance", n)
+                                                              : VectorXd::Constant(n, std::numeric_limits<double>::infinity());
     load_streams(c, prefix, rngs_);
     for (Index e = 0; e < n; ++e) {
       target_[idx(e)] = t.col(e);
       steps_left_[idx(e)] = s[e];
       reached_[idx(e)] = static_cast<std::uint8_t>(r[e] != 0);
       last_reward_[idx(e)] = lr[e];
+      start_distance_[idx(e)] = sd[e];
     }
   }
 
@@ -168,6 +201,7 @@ class LocationTask {
     auto& r = rngs_[idx(e)];
     const double angle = r.uniform(-M_PI, M_PI), dist = r.uniform(c_.min_distance, c_.max_distance);
     target_[idx(e)] = Vec3(root.x() + dist * std::cos(angle), root.y() + dist * std::sin(angle), 0.0);
+    start_distance_[idx(e)] = dist;
     steps_left_[idx(e)] = c_.schedule.draw(r);
     reached_[idx(e)] = 0;
   }
@@ -175,6 +209,7 @@ class LocationTask {
   LocationConfig c_;
   std::vector<Rng> rngs_;
   std::vector<Vec3> target_;
+  std::vector<double> start_distance_;  ///< horizontal root–target distance when the target was drawn (m)
   std::vector<Index> steps_left_;
   std::vector<std::uint8_t> reached_;
   std::vector<float> last_reward_;
