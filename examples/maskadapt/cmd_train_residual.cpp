@@ -56,7 +56,9 @@ struct Args {
   std::vector<double> objective_weights;
   long long iterations = -1, seed = -1;
   double minutes = -1, switch_rate = -1, episode_seconds = -1, term_threshold = -1, residual_std = -1, blend_resets = -1,
-         location_facing_weight = -1, strike_approach_weight = -1;
+         location_facing_weight = -1, location_position_weight = -1, strike_approach_weight = -1, location_divergence = -1;
+  std::vector<double> location_distance;  ///< [min, max] (m)
+  std::vector<std::string> part_std;      ///< "PARTS=σ" items
   std::vector<Index> hidden;
   std::vector<std::string> composition_only, tracking_only;  ///< such flags given on the command line
 };
@@ -117,6 +119,10 @@ tasks::AnyGoalTask<MujocoHumanoidSim> make_goal_task(const std::string& task, co
   if (task == "location") {
     tasks::LocationConfig lc;
     lc.facing_weight = c.location_facing_weight;
+    lc.position_weight = c.location_position_weight;
+    lc.min_distance = c.location_min_distance;
+    lc.max_distance = c.location_max_distance;
+    lc.divergence_distance = c.location_divergence;
     lc.seed = seed;
     lc.first_env = first_env;
     return tasks::LocationTask(lc, N);
@@ -257,6 +263,14 @@ void run_train_residual(const Args& a) {
     if (a.blend_resets >= 0) c.blend_resets = a.blend_resets;
     if (a.noise_hold_steps > 0) c.noise_hold_steps = a.noise_hold_steps;
     if (a.location_facing_weight >= 0) c.location_facing_weight = a.location_facing_weight;
+    if (a.location_position_weight >= 0) c.location_position_weight = a.location_position_weight;
+    if (!a.location_distance.empty()) {
+      require(a.location_distance.size() == 2, "expected two values, MIN MAX (m)", {{}, {}, "--location-distance"});
+      c.location_min_distance = a.location_distance[0];
+      c.location_max_distance = a.location_distance[1];
+    }
+    if (a.location_divergence >= 0) c.location_divergence = a.location_divergence;
+    if (!a.part_std.empty()) c.residual_part_std = parse_part_std(a.part_std, "--part-std");
     if (a.strike_approach_weight >= 0) c.strike_approach_weight = a.strike_approach_weight;
     if (!a.objective_weights.empty()) c.objective_weights = a.objective_weights;
     require(c.method == "scratch" || !a.base.empty(), "a base checkpoint is needed (or --method scratch)", {{}, {}, "--base"});
@@ -297,7 +311,10 @@ void run_train_residual(const Args& a) {
                               {"masks", "--masks"}, {"task", "--task"}, {"method", "--method"}, {"blend_resets", "--blend-resets"},
                               {"noise_hold_steps", "--noise-hold-steps"}, {"objective_weights", "--objective-weights"},
                               {"location_facing_weight", "--location-facing-weight"},
-                              {"strike_approach_weight", "--strike-approach-weight"}});
+                              {"location_position_weight", "--location-position-weight"},
+                              {"strike_approach_weight", "--strike-approach-weight"},
+                              {"location_distance", "--location-distance"}, {"location_divergence", "--location-divergence"},
+                              {"residual_part_std", "--part-std"}});
   require(c.task != "composition" || !c.new_motions.empty(), "composition needs --new-motion", {{}, {}, "--new-motion"});
 
   const MujocoCharacter& character = mujoco_character(c.rl.env.character, "env.character");
@@ -725,6 +742,20 @@ const bool registered = maskadapt::cli::register_command([](CLI::App& app) {
   keep(c->add_option("--location-facing-weight", a->location_facing_weight,
                      "location: weight of the facing shaping term (1 + f·d)/2 in the reward (default 0: the paper's)"))
       ->check(probability());
+  keep(c->add_option("--location-position-weight", a->location_position_weight,
+                     "location: weight of the position shaping term exp(-0.5 d²) in the reward (default 0: the paper's; "
+                     "with the facing weight at most 1)"))
+      ->check(probability());
+  keep(c->add_option("--part-std", a->part_std,
+                     "σ of the residual's exploration per body part, PARTS=σ items (e.g. arms=0.15 lower_body=0.05; "
+                     "default: --residual-std on every part)"));
+  keep(c->add_option("--location-distance", a->location_distance,
+                     "location, training only: MIN MAX distance of the drawn targets (m; default 1 5, as evaluated)"))
+      ->expected(2)
+      ->check(positive_real(100.0));
+  keep(c->add_option("--location-divergence", a->location_divergence,
+                     "location: end the episode when the target is this much farther than when drawn (m; default 0: never)"))
+      ->check(non_negative_real());
   keep(c->add_option("--strike-approach-weight", a->strike_approach_weight,
                      "strike: weight of the approach shaping term in the reward (default 0: the paper's)"))
       ->check(probability());

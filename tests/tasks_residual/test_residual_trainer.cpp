@@ -731,6 +731,83 @@ TEST(ResidualConfig, KeepsTheResidualSigmaThroughJsonAndIntoTheNetwork) {
   }
 }
 
+TEST(ResidualConfig, ParsesPerPartSigmaItemsAndKeepsThemThroughJsonAndIntoTheNetwork) {
+  const auto s = parse_part_std({"arms=0.15", "left_leg,right_leg=0.05"}, "--part-std");
+  EXPECT_EQ(s[static_cast<std::size_t>(BodyPart::LeftArm)], 0.15);
+  EXPECT_EQ(s[static_cast<std::size_t>(BodyPart::RightArm)], 0.15);
+  EXPECT_EQ(s[static_cast<std::size_t>(BodyPart::LeftLeg)], 0.05);
+  EXPECT_EQ(s[static_cast<std::size_t>(BodyPart::RightLeg)], 0.05);
+  EXPECT_EQ(s[static_cast<std::size_t>(BodyPart::Trunk)], 0.0);  // not given: residual_std
+  ResidualTrainConfig c;
+  c.residual_part_std = s;
+  const nlohmann::json j = to_json(c);
+  EXPECT_EQ(j.at("residual_part_std").size(), 4u);  // the parts set only
+  EXPECT_EQ(j.at("residual_part_std").at("left_arm"), 0.15);
+  const auto back = residual_config_from_json(j);
+  EXPECT_EQ(back.residual_part_std, s);
+  EXPECT_EQ(residual_net_config(back, maskadapt::testing::tiny_walker_skeleton()).part_std, s);
+  nlohmann::json old = j;
+  old.erase("residual_part_std");  // written before the field existed: every part at residual_std
+  EXPECT_EQ(residual_config_from_json(old).residual_part_std, (std::array<double, kNumParts>{}));
+  nlohmann::json unknown = j;
+  unknown["residual_part_std"]["tail"] = 0.1;
+  expect_error_naming([&] { (void)residual_config_from_json(unknown); }, "residual_part_std", "an unknown part");
+  // bad items are refused naming the flag
+  for (const std::vector<std::string>& bad :
+       {std::vector<std::string>{"arms"}, {"arms="}, {"=0.1"}, {"arms=x"}, {"arms=0.1x"}, {"arms=-0.1"}, {"arms=0"},
+        {"arms=nan"}, {"arms=11"}, {"hands=0.1"}, {"arms=0.1", "left_arm=0.2"}}) {
+    expect_error_naming([&] { (void)parse_part_std(bad, "--part-std"); }, "--part-std", "a bad --part-std item");
+  }
+}
+
+TEST(ResidualConfig, KeepsTheLocationDistanceDivergenceAndPositionWeightAndRefusesThemElsewhere) {
+  ResidualTrainConfig c;
+  c.task = "location";
+  c.location_min_distance = 0.5;
+  c.location_max_distance = 2.0;
+  c.location_divergence = 3.0;
+  c.location_position_weight = 0.25;
+  const auto back = residual_config_from_json(to_json(c));
+  EXPECT_EQ(back.location_position_weight, 0.25);
+  EXPECT_EQ(back.location_min_distance, 0.5);
+  EXPECT_EQ(back.location_max_distance, 2.0);
+  EXPECT_EQ(back.location_divergence, 3.0);
+  nlohmann::json old = to_json(c);  // written before the fields existed: 1–5 m, never
+  old.erase("location_distance");
+  old.erase("location_divergence");
+  old.erase("location_position_weight");
+  const auto o = residual_config_from_json(old);
+  EXPECT_EQ(o.location_position_weight, 0.0);
+  EXPECT_EQ(o.location_min_distance, 1.0);
+  EXPECT_EQ(o.location_max_distance, 5.0);
+  EXPECT_EQ(o.location_divergence, 0.0);
+  auto bad = [&](auto edit, const char* field) {
+    ResidualTrainConfig b = c;
+    edit(b);
+    expect_error_naming([&] { b.validate(); }, field, field);
+  };
+  bad([](ResidualTrainConfig& b) { b.location_min_distance = 0; }, "location_distance");
+  bad([](ResidualTrainConfig& b) { b.location_max_distance = 0.4; }, "location_distance");
+  bad([](ResidualTrainConfig& b) { b.location_max_distance = std::nan(""); }, "location_distance");
+  bad([](ResidualTrainConfig& b) { b.location_divergence = -1; }, "location_divergence");
+  bad([](ResidualTrainConfig& b) { b.location_facing_weight = 0.5; b.location_position_weight = 0.6; },
+      "location_position_weight");
+  bad([](ResidualTrainConfig& b) {
+    b.task = "heading";
+    b.location_position_weight = 0;
+    b.location_min_distance = 1;
+    b.location_max_distance = 5;
+  }, "location_divergence");
+  bad([](ResidualTrainConfig& b) { b.task = "heading"; b.location_position_weight = 0; b.location_divergence = 0; },
+      "location_distance");
+  bad([](ResidualTrainConfig& b) {
+    b.task = "heading";
+    b.location_min_distance = 1;
+    b.location_max_distance = 5;
+    b.location_divergence = 0;
+  }, "location_position_weight");
+}
+
 TEST(ResidualConfig, KeepsTheBlendResetShareThroughJsonAndRejectsBadValues) {
   ResidualTrainConfig c;
   c.blend_resets = 0.5;

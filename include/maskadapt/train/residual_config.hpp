@@ -18,6 +18,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include <array>
 #include <cmath>
 
 #include <string>
@@ -44,6 +45,8 @@ struct ResidualTrainConfig {
   std::string gain = "scalar";        ///< fixed | scalar | per_dof
   double init_gain = 1.0;
   double residual_std = 0.0;          ///< σ_ψ of the residual (action units); 0 = the base's σ (adapt::ResidualConfig::init_std)
+  /// σ_ψ per body part, over residual_std on that part's DoFs; 0 = residual_std (adapt::ResidualConfig::part_std)
+  std::array<double, kNumParts> residual_part_std{};
   /// Exploration noise held for this many control steps (1 = fresh noise every step, the paper's
   /// PPO). With k > 1 each env draws the composite's deviation a − μ̂ once every k steps (and at
   /// every episode start) and adds that same deviation to the mean of the next k − 1 steps, so
@@ -55,6 +58,15 @@ struct ResidualTrainConfig {
   /// location: weight w of the facing shaping term (tasks::LocationConfig::facing_weight; 0 = the
   /// paper's reward)
   double location_facing_weight = 0.0;
+  /// location: weight p of the position shaping term (tasks::LocationConfig::position_weight; 0 =
+  /// the paper's reward; location_facing_weight + p <= 1)
+  double location_position_weight = 0.0;
+  /// location, training only: targets drawn this far from the root (m; tasks::LocationConfig's
+  /// min/max_distance; evaluation always draws the defaults, 1–5 m)
+  double location_min_distance = 1.0, location_max_distance = 5.0;
+  /// location, training only: end the episode once the target is this much farther than when
+  /// drawn (m; tasks::LocationConfig::divergence_distance; 0 = never, the paper's)
+  double location_divergence = 0.0;
   /// strike: weight w of the approach shaping term (tasks::StrikeConfig::approach_weight; 0 = the
   /// paper's reward)
   double strike_approach_weight = 0.0;
@@ -83,6 +95,9 @@ struct ResidualTrainConfig {
     require(switch_rate >= 0, "must be ≥ 0", {{}, {}, "switch_rate"});
     require(std::isfinite(residual_std) && residual_std >= 0, "must be finite and ≥ 0 (0 = the base's σ)",
             {{}, {}, "residual_std"});
+    for (std::size_t p = 0; p < residual_part_std.size(); ++p)
+      require(std::isfinite(residual_part_std[p]) && residual_part_std[p] >= 0 && residual_part_std[p] <= 10,
+              "must be finite and in [0, 10] (0 = residual_std)", {{}, {}, "residual_part_std." + std::string(kPartNames[p])});
     require(negative_fraction >= 0 && negative_fraction < 1, "must be in [0, 1)", {{}, {}, "negative_fraction"});
     require(std::isfinite(blend_resets) && blend_resets >= 0 && blend_resets <= 1, "must be in [0, 1]",
             {{}, {}, "blend_resets"});
@@ -96,6 +111,20 @@ struct ResidualTrainConfig {
             "must be in [0, 1]", {{}, {}, "location_facing_weight"});
     require(location_facing_weight == 0 || task == "location",
             "the facing shaping term is the location task's, not " + task + "'s", {{}, {}, "location_facing_weight"});
+    require(std::isfinite(location_position_weight) && location_position_weight >= 0 &&
+                location_facing_weight + location_position_weight <= 1,
+            "must be >= 0, with location_facing_weight + location_position_weight <= 1", {{}, {}, "location_position_weight"});
+    require(location_position_weight == 0 || task == "location",
+            "the position shaping term is the location task's, not " + task + "'s", {{}, {}, "location_position_weight"});
+    require(std::isfinite(location_min_distance) && std::isfinite(location_max_distance) && location_min_distance > 0 &&
+                location_max_distance >= location_min_distance && location_max_distance <= 100,
+            "need 0 < min <= max <= 100 m", {{}, {}, "location_distance"});
+    require(task == "location" || (location_min_distance == 1.0 && location_max_distance == 5.0),
+            "target distances are the location task's, not " + task + "'s", {{}, {}, "location_distance"});
+    require(std::isfinite(location_divergence) && location_divergence >= 0, "must be finite and >= 0 m (0 = never)",
+            {{}, {}, "location_divergence"});
+    require(location_divergence == 0 || task == "location",
+            "the divergence termination is the location task's, not " + task + "'s", {{}, {}, "location_divergence"});
     require(std::isfinite(strike_approach_weight) && strike_approach_weight >= 0 && strike_approach_weight <= 1,
             "must be in [0, 1]", {{}, {}, "strike_approach_weight"});
     require(strike_approach_weight == 0 || task == "strike",
@@ -111,6 +140,58 @@ struct ResidualTrainConfig {
   }
 };
 
+/// Per-part σ as JSON: {"left_arm": 0.15, …}, the parts set (> 0) only.
+inline nlohmann::json part_std_to_json(const std::array<double, kNumParts>& s) {
+  nlohmann::json j = nlohmann::json::object();
+  for (std::size_t p = 0; p < s.size(); ++p)
+    if (s[p] > 0) j[std::string(kPartNames[p])] = s[p];
+  return j;
+}
+
+/// The inverse of part_std_to_json; an unknown part name or a non-number throws naming it.
+inline std::array<double, kNumParts> part_std_from_json(const nlohmann::json& j, const std::string& file = {}) {
+  std::array<double, kNumParts> s{};
+  if (!j.is_object()) throw Error("expected an object {part: σ}", {file, std::nullopt, "residual_part_std"});
+  for (const auto& [name, v] : j.items()) {
+    std::size_t p = 0;
+    while (p < kPartNames.size() && kPartNames[p] != name) ++p;
+    if (p == kPartNames.size()) throw Error("unknown body part '" + name + "'", {file, std::nullopt, "residual_part_std"});
+    if (!v.is_number()) throw Error("σ must be a number", {file, std::nullopt, "residual_part_std." + name});
+    s[p] = v.get<double>();
+  }
+  return s;
+}
+
+/// Parses "PARTS=σ" items ("arms=0.15", "left_leg,right_leg=0.05"; part and group names as
+/// PartMask::parse) into a σ per part; a part named twice, a missing '=', or a σ that is not a
+/// positive finite number throws naming `field` (a flag).
+inline std::array<double, kNumParts> parse_part_std(const std::vector<std::string>& items, const std::string& field) {
+  std::array<double, kNumParts> s{};
+  for (const std::string& item : items) {
+    const auto eq = item.rfind('=');
+    require(eq != std::string::npos && eq > 0 && eq + 1 < item.size(), "expected PARTS=σ (e.g. arms=0.15), got '" + item + "'",
+            {{}, {}, field});
+    const PartMask m = PartMask::parse(item.substr(0, eq), field);
+    const std::string text = item.substr(eq + 1);
+    double v = 0;
+    std::size_t used = 0;
+    try {
+      v = std::stod(text, &used);
+    } catch (const std::exception&) {
+      used = 0;  // (not a number: refused below)
+    }
+    require(used == text.size(), "σ '" + text + "' in '" + item + "' is not a number", {{}, {}, field});
+    require(std::isfinite(v) && v > 0 && v <= 10, "σ must be in (0, 10], got '" + item + "'", {{}, {}, field});
+    for (int p = 0; p < kNumParts; ++p)
+      if (m.has(static_cast<BodyPart>(p))) {
+        require(s[static_cast<std::size_t>(p)] == 0, std::string(kPartNames[static_cast<std::size_t>(p)]) + " is given twice",
+                {{}, {}, field});
+        s[static_cast<std::size_t>(p)] = v;
+      }
+  }
+  return s;
+}
+
 inline nlohmann::json to_json(const ResidualTrainConfig& c) {
   return {{"rl", to_json(c.rl)},
           {"task", c.task},
@@ -125,8 +206,12 @@ inline nlohmann::json to_json(const ResidualTrainConfig& c) {
           {"gain", c.gain},
           {"init_gain", c.init_gain},
           {"residual_std", c.residual_std},
+          {"residual_part_std", part_std_to_json(c.residual_part_std)},
           {"noise_hold_steps", c.noise_hold_steps},
           {"location_facing_weight", c.location_facing_weight},
+          {"location_position_weight", c.location_position_weight},
+          {"location_distance", {c.location_min_distance, c.location_max_distance}},
+          {"location_divergence", c.location_divergence},
           {"strike_approach_weight", c.strike_approach_weight},
           {"designated", c.designated},
           {"texts", c.texts},
@@ -158,6 +243,14 @@ inline ResidualTrainConfig residual_config_from_json(const nlohmann::json& j, co
     c.residual_std = j.value("residual_std", 0.0);  // (absent before it was recorded: the base's σ)
     c.noise_hold_steps = j.value("noise_hold_steps", 1);  // (absent before it existed: fresh noise every step)
     c.location_facing_weight = j.value("location_facing_weight", 0.0);  // (absent before it existed: the paper's reward)
+    c.location_position_weight = j.value("location_position_weight", 0.0);  // (absent before it existed: the paper's reward)
+    // (the three below absent before they existed: every part at residual_std, 1–5 m, no divergence test)
+    c.residual_part_std = part_std_from_json(j.value("residual_part_std", nlohmann::json::object()), file);
+    const auto dist = j.value("location_distance", std::vector<double>{1.0, 5.0});
+    if (dist.size() != 2) throw Error("expected [min, max] (m)", {file, std::nullopt, "location_distance"});
+    c.location_min_distance = dist[0];
+    c.location_max_distance = dist[1];
+    c.location_divergence = j.value("location_divergence", 0.0);
     c.strike_approach_weight = j.value("strike_approach_weight", 0.0);  // (absent before it existed: the paper's reward)
     c.designated = j.at("designated");
     c.texts = j.value("texts", std::vector<std::string>());  // (absent before it was recorded: the pool)
@@ -235,6 +328,7 @@ inline adapt::ResidualConfig residual_net_config(const ResidualTrainConfig& c, c
   rc.gain = adapt::gain_mode_from_name(c.gain);
   rc.init_gain = c.init_gain;
   rc.init_std = c.residual_std;
+  rc.part_std = c.residual_part_std;
   rc.masked_base_input = !(c.task == "tracking" && c.method == "cml");
   rc.goal_dim = task_goal_dim(c, skel);
   rc.goal_parts = c.goal_parts.empty() ? PartMask::none() : PartMask::parse(c.goal_parts, "goal_parts");
