@@ -149,6 +149,20 @@ endforeach()
 foreach(v -1 nan abc)
   bad(--objective-weights ${v} ${R} --objective-weights 0.5 ${v})
 endforeach()
+foreach(v arms arms=0 arms=11 arms=abc)
+  bad(--part-std ${v} ${R} --part-std ${v})
+endforeach()
+bad(--part-std elbows ${R} --part-std elbows=0.1)   # an unknown part
+bad(--part-std - ${R} --part-std arms=0.1 left_arm=0.2)   # a part named twice
+foreach(v 0 -1 nan abc 101)
+  bad(--location-distance ${v} ${R} --task location --location-distance ${v} 3)
+endforeach()
+foreach(v -1 nan inf abc)
+  bad(--location-divergence ${v} ${R} --task location --location-divergence ${v})
+endforeach()
+foreach(v -0.5 1.5 nan abc)
+  bad(--location-position-weight ${v} ${R} --task location --location-position-weight ${v})
+endforeach()
 bad(--task foo ${R} --task foo)
 bad(--method bar ${R} --method bar)
 bad(--gain big ${R} --gain big)
@@ -176,6 +190,15 @@ if(HAS_MUJOCO)
       --iterations 1 --out ${OUT}/never)
   bad(--objective-weights - train-residual --method scratch --task location --objective-weights 0.2 0.3 0.5
       --iterations 1 --out ${OUT}/never)
+  # the location goal flags are the location task's; facing + position weights at most 1
+  bad(--location-divergence - train-residual --method scratch --task heading --location-divergence 2
+      --iterations 1 --out ${OUT}/never)
+  bad(--location-distance - train-residual --method scratch --task strike --location-distance 1 3
+      --iterations 1 --out ${OUT}/never)
+  bad(--location-distance - train-residual --method scratch --task location --location-distance 3 1   # max < min
+      --iterations 1 --out ${OUT}/never)
+  bad(--location-position-weight - train-residual --method scratch --task location --location-facing-weight 0.6
+      --location-position-weight 0.6 --iterations 1 --out ${OUT}/never)
   # goal parts are a goal task's
   bad(--goal-parts - train-residual --method scratch --task composition --new-motion kick --goal-parts lower_body
       --iterations 1 --out ${OUT}/never)
