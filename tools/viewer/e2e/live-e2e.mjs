@@ -21,59 +21,38 @@
 // both humanoid bases, every start and five masks (DIR/live_browser.json, next to the native
 // figures of tools/viewer/live/native_*.json; docs/viewer.md's table). Exit codes: 0 pass, 1 fail, 77 skipped (no Chromium /
 // node_modules) — ctest SKIP_RETURN_CODE.
-import { spawnSync } from 'node:child_process';
 import fs from 'node:fs';
 import path from 'node:path';
 import { fileURLToPath } from 'node:url';
-import { CHROMIUM, launchChromium, serveDir } from './harness.mjs';
+import { buildViewer, canvasShare, launchChromium, parseArgs, reporter, requireBrowser, serveDir } from './harness.mjs';
 
-const t0 = Date.now();
 const here = path.dirname(fileURLToPath(import.meta.url));
 const root = path.resolve(here, '..');
 const repo = path.resolve(root, '../..');
+const { skip, fail, check } = reporter();
 
-function skip(msg) {
-  console.log(`SKIP: ${msg}`);
-  process.exit(77);
-}
-function fail(msg) {
-  console.error(`FAIL: ${msg}`);
-  process.exitCode = 1;
-  throw new Error(msg);
-}
-function check(cond, msg) {
-  if (!cond) fail(msg);
-  console.log(`ok - ${msg} [${((Date.now() - t0) / 1000).toFixed(1)} s]`);
-}
-
-const args = Object.fromEntries(
-  process.argv.slice(2).reduce((acc, a, i, all) => (a.startsWith('--') ? [...acc, [a.slice(2), all[i + 1] && !all[i + 1].startsWith('--') ? all[i + 1] : '']] : acc), []),
-);
+const args = parseArgs();
 const outDir = path.resolve(args.out || path.join(root, 'test-results', 'live'));
 fs.mkdirSync(outDir, { recursive: true });
-if (!fs.existsSync(CHROMIUM)) skip(`Chromium not found at ${CHROMIUM} (install Debian's chromium package)`);
-for (const dep of ['playwright-core', 'vite', 'mujoco-js'])
-  if (!fs.existsSync(path.join(root, 'node_modules', dep))) skip(`node_modules/${dep} missing in ${root} (run scripts/setup-viewer.sh)`);
+requireBrowser(root, ['playwright-core', 'vite', 'mujoco-js'], skip);
 
 const { PART_COLORS, BASE_COLOR, GOAL_COLOR } = await import('../src/colors.js');
 
 // ---- build ----------------------------------------------------------------------------------
 const dist = path.join(outDir, 'dist');
-for (const step of [
-  [path.join(root, 'scripts/copy-live-assets.mjs')],
-  [path.join(root, 'node_modules/vite/bin/vite.js'), 'build', '--outDir', dist, '--emptyOutDir', '--logLevel', 'warn'],
-]) {
-  const r = spawnSync(process.execPath, step, { cwd: root, encoding: 'utf8' });
-  if (r.status !== 0) {
-    console.error(r.stdout, r.stderr);
-    fail(`${path.basename(step[0])} failed`);
-  }
-}
+buildViewer(root, dist, fail, { liveAssets: true });
 check(fs.existsSync(path.join(dist, 'live', 'models', 'mask_mi_walk_bandai.bin')), 'built the viewer with the live assets');
 
 const server = await serveDir(dist);
 const { page, close } = await launchChromium({ width: 1280, height: 720 });
 const live = (fn, arg) => page.evaluate(fn, arg);
+// Fraction of the live view's pixels within `tol` (sum of |ΔR|, |ΔG|, |ΔB|) of colour `hex`; with
+// `bluish` only those whose blue exceeds their red by more than 40.
+const colourShare = (hex, tol, bluish = false) =>
+  canvasShare(page, '#live-view canvas', ([hex, tol, bluish]) => {
+    const t = [1, 3, 5].map((i) => parseInt(hex.slice(i, i + 2), 16));
+    return (r, g, b) => Math.abs(r - t[0]) + Math.abs(g - t[1]) + Math.abs(b - t[2]) < tol && (!bluish || b > r + 40);
+  }, [hex, tol, bluish]);
 try {
   await page.goto(`${server.url}#live`);
   const ready = await page.evaluate(() => window.__live.ready);
@@ -111,19 +90,7 @@ try {
     'the legs take their part colours, the head stays grey');
   s = await live(() => window.__live.runSeconds(5));
   await page.screenshot({ path: path.join(outDir, 'live-mi-legs-masked.png') });
-  const legShare = await page.evaluate((hex) => {
-    const src = document.querySelector('#live-view canvas');
-    const c = document.createElement('canvas');
-    c.width = src.width;
-    c.height = src.height;
-    const ctx = c.getContext('2d');
-    ctx.drawImage(src, 0, 0);
-    const d = ctx.getImageData(0, 0, c.width, c.height).data;
-    const t = [1, 3, 5].map((i) => parseInt(hex.slice(i, i + 2), 16));
-    let hits = 0;
-    for (let i = 0; i < d.length; i += 4) if (Math.abs(d[i] - t[0]) + Math.abs(d[i + 1] - t[1]) + Math.abs(d[i + 2] - t[2]) < 90 && d[i + 2] > d[i] + 40) ++hits;
-    return hits / (d.length / 4);
-  }, PART_COLORS[3]);
+  const legShare = await colourShare(PART_COLORS[3], 90, true);
   check(legShare > 0.001, `rendered pixels show the left-leg colour (${(100 * legShare).toFixed(2)}% of the view)`);
   s = await live(() => window.__live.runSeconds(5));
   const mi = s;
@@ -187,19 +154,7 @@ try {
   check(texts.includes('arms high') && texts[0] === 'punch' && Number.isFinite(s.tracking.meanTrackingError),
     `6 s: primitives ${texts.filter((t) => t === 'punch').length}× "punch" then ${texts.filter((t) => t === 'arms high').length}× "arms high"; tracking error now ${s.tracking.trackingError.toFixed(3)} m, mean ${s.tracking.meanTrackingError.toFixed(3)} m; ${s.falls} falls`);
   await page.screenshot({ path: path.join(outDir, 'live-tracking.png') });
-  const goalShare = await page.evaluate((hex) => {
-    const src = document.querySelector('#live-view canvas');
-    const c = document.createElement('canvas');
-    c.width = src.width;
-    c.height = src.height;
-    const ctx = c.getContext('2d');
-    ctx.drawImage(src, 0, 0);
-    const d = ctx.getImageData(0, 0, c.width, c.height).data;
-    const t = [1, 3, 5].map((i) => parseInt(hex.slice(i, i + 2), 16));
-    let hits = 0;
-    for (let i = 0; i < d.length; i += 4) if (Math.abs(d[i] - t[0]) + Math.abs(d[i + 1] - t[1]) + Math.abs(d[i + 2] - t[2]) < 60) ++hits;
-    return hits / (d.length / 4);
-  }, GOAL_COLOR);
+  const goalShare = await colourShare(GOAL_COLOR, 60);
   check(goalShare > 0.0002, `rendered pixels show the green goal targets (${(100 * goalShare).toFixed(3)}% of the view)`);
   await page.fill('#live-prompt', '  ?! ');
   await page.click('#live-prompt-apply');

@@ -9,57 +9,30 @@
 // side by side, loads G (a rollout with a goal-task scene) and checks its target, arrow and box,
 // opens two training logs, and saves screenshots into DIR.
 // Exit codes: 0 pass, 1 fail, 77 skipped (no Chromium / node_modules) — ctest SKIP_RETURN_CODE.
-import { spawnSync } from 'node:child_process';
 import fs from 'node:fs';
 import path from 'node:path';
 import { fileURLToPath } from 'node:url';
-import { CHROMIUM, launchChromium, scrubTo as scrubPage, serveDir, viewerState } from './harness.mjs';
+import { buildViewer, canvasShare, launchChromium, parseArgs, reporter, requireBrowser, scrubTo as scrubPage, serveDir, viewerState } from './harness.mjs';
 
-const t0 = Date.now();
 const here = path.dirname(fileURLToPath(import.meta.url));
 const root = path.resolve(here, '..');
+const { skip, fail, check } = reporter();
 
-function skip(msg) {
-  console.log(`SKIP: ${msg}`);
-  process.exit(77);
-}
-function fail(msg) {
-  console.error(`FAIL: ${msg}`);
-  process.exitCode = 1;
-  throw new Error(msg);
-}
-function check(cond, msg) {
-  if (!cond) fail(msg);
-  console.log(`ok - ${msg} [${((Date.now() - t0) / 1000).toFixed(1)} s]`);
-}
-
-const args = Object.fromEntries(
-  process.argv.slice(2).reduce((acc, a, i, all) => (a.startsWith('--') ? [...acc, [a.slice(2), all[i + 1]]] : acc), []),
-);
+const args = parseArgs();
 if (!args['rollout-a']) {
   console.error('usage: node e2e/run-e2e.mjs --rollout-a A.json [--rollout-b B.json] [--rollout-goals G.json] [--out DIR]');
   process.exit(2);
 }
 const outDir = path.resolve(args.out || path.join(root, 'test-results'));
 fs.mkdirSync(outDir, { recursive: true });
-
-if (!fs.existsSync(CHROMIUM)) skip(`Chromium not found at ${CHROMIUM} (install Debian's chromium package)`);
-if (!fs.existsSync(path.join(root, 'node_modules', 'playwright-core')) || !fs.existsSync(path.join(root, 'node_modules', 'vite')))
-  skip(`node_modules missing in ${root} (run scripts/setup-viewer.sh)`);
+requireBrowser(root, ['playwright-core', 'vite'], skip);
 
 const { ARROW_COLOR, BASE_COLOR, PART_COLORS, TARGET_COLOR } = await import('../src/colors.js');
 const { PART_NAMES } = await import('../src/rollout.js');
 
 // ---- build the current sources into outDir/dist ------------------------------------------------
 const dist = path.join(outDir, 'dist');
-const build = spawnSync(process.execPath, [path.join(root, 'node_modules/vite/bin/vite.js'), 'build', '--outDir', dist, '--emptyOutDir', '--logLevel', 'warn'], {
-  cwd: root,
-  encoding: 'utf8',
-});
-if (build.status !== 0) {
-  console.error(build.stdout, build.stderr);
-  fail('vite build failed');
-}
+buildViewer(root, dist, fail);
 
 // ---- static server ----------------------------------------------------------------------------
 const server = await serveDir(dist);
@@ -107,15 +80,8 @@ try {
   }
   // Fraction of pixels of view A whose hue is within 10° of `hex` and clearly saturated
   // (lighting changes brightness and saturation a little, hardly the hue).
-  async function pixelShare(hex) {
-    return page.evaluate((hex) => {
-      const src = document.querySelector('#view-a canvas');
-      const c = document.createElement('canvas');
-      c.width = src.width;
-      c.height = src.height;
-      const ctx = c.getContext('2d');
-      ctx.drawImage(src, 0, 0);
-      const d = ctx.getImageData(0, 0, c.width, c.height).data;
+  function pixelShare(hex) {
+    return canvasShare(page, '#view-a canvas', (hex) => {
       const hsv = (r, g, b) => {
         const max = Math.max(r, g, b), min = Math.min(r, g, b), delta = max - min;
         let h = 0;
@@ -127,13 +93,11 @@ try {
         return [(h + 360) % 360, max ? delta / max : 0, max / 255];
       };
       const [th] = hsv(...[1, 3, 5].map((i) => parseInt(hex.slice(i, i + 2), 16)));
-      let hits = 0;
-      for (let i = 0; i < d.length; i += 4) {
-        const [h, s, v] = hsv(d[i], d[i + 1], d[i + 2]);
+      return (r, g, b) => {
+        const [h, s, v] = hsv(r, g, b);
         const dh = Math.min(Math.abs(h - th), 360 - Math.abs(h - th));
-        if (dh < 10 && s > 0.35 && v > 0.15) ++hits;
-      }
-      return hits / (d.length / 4);
+        return dh < 10 && s > 0.35 && v > 0.15;
+      };
     }, hex);
   }
 

@@ -1,3 +1,8 @@
+import fs from 'node:fs';
+import path from 'node:path';
+import { fileURLToPath } from 'node:url';
+import { expect } from 'vitest';
+
 // A hand-made 2-body rollout: root + left arm, 4 frames at 2 fps, arms adapted from frame 2.
 export function tinyRollout() {
   return {
@@ -58,4 +63,34 @@ export function sceneRollout() {
     ],
   };
   return doc;
+}
+
+// ---- the live page's fixtures (live.test.js, tracking.test.js) ---------------------------------
+
+const here = path.dirname(fileURLToPath(import.meta.url));
+/** The checkout's root (models/, assets/). */
+export const repo = path.resolve(here, '../../..');
+// MASKADAPT_LIVE_FIXTURES: a folder freshly written by maskadapt_viewer_live_reference and
+// maskadapt_viewer_live_tracking_reference (ctest viewer_live_js), so that a change to the C++
+// that the page does not follow fails here; else the copies in tools/viewer/live/.
+export const liveDir = path.resolve(process.env.MASKADAPT_LIVE_FIXTURES || path.resolve(here, '../live'));
+export const readJson = (p) => JSON.parse(fs.readFileSync(p, 'utf8'));
+
+/**
+ * Expects `actual` (JavaScript) to equal `expected` (what the C++ recorded) to `tol` relative to
+ * max(1, |value|); the message names `what`, the worst entry and both values. Returns the worst
+ * relative error.
+ */
+export function expectClose(actual, expected, tol, what) {
+  expect(actual.length, `${what}: length`).toBe(expected.length);
+  let worst = 0, at = -1;
+  for (let i = 0; i < expected.length; ++i) {
+    const err = Math.abs(actual[i] - expected[i]) / Math.max(1, Math.abs(expected[i]));
+    if (!(err <= worst)) {
+      worst = err;
+      at = i;
+    }
+  }
+  expect(worst, `${what}: worst relative error at ${at} (js ${actual[at]}, c++ ${expected[at]})`).toBeLessThanOrEqual(tol);
+  return worst;
 }

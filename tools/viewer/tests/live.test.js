@@ -7,37 +7,17 @@
 import { describe, expect, it, beforeAll } from 'vitest';
 import fs from 'node:fs';
 import path from 'node:path';
-import { fileURLToPath } from 'node:url';
 import { parseCheckpoint, crc32 } from '../src/live/checkpoint.js';
 import { loadBasePolicy, loadPolicy } from '../src/live/policy.js';
 import { buildPolicyInput, computeObservation, maskText, observationDim, observationParts, parseMask, PART_NAMES } from '../src/live/features.js';
 import { LiveSim, loadMujoco } from '../src/live/sim.js';
 import { LiveSession } from '../src/live/session.js';
+import { expectClose, liveDir, readJson, repo } from './fixtures.js';
 
-const here = path.dirname(fileURLToPath(import.meta.url));
-const repo = path.resolve(here, '../../..');
-// MASKADAPT_LIVE_FIXTURES: a folder freshly written by maskadapt_viewer_live_reference (ctest
-// viewer_live_js), so that a change to the C++ that the page does not follow fails here.
-const liveDir = path.resolve(process.env.MASKADAPT_LIVE_FIXTURES || path.resolve(here, '../live'));
-const readJson = (p) => JSON.parse(fs.readFileSync(p, 'utf8'));
 const modelBytes = (name) => new Uint8Array(fs.readFileSync(path.join(repo, 'models', `${name}.bin`)));
 const characters = { humanoid: readJson(path.join(liveDir, 'character_humanoid.json')), g1: readJson(path.join(liveDir, 'character_g1.json')) };
 const MODELS = ['mask_mi_walk_bandai', 'amp_walk_bandai', 'g1_mask_mi_walk_bandai', 'g1_amp_walk_bandai'];
 const STAGE2 = ['swim_ours_s1', 'kick_cut_ours_s1'];  // models/table2/
-
-function expectClose(actual, expected, tol, what) {
-  expect(actual.length, `${what}: length`).toBe(expected.length);
-  let worst = 0, at = -1;
-  for (let i = 0; i < expected.length; ++i) {
-    const err = Math.abs(actual[i] - expected[i]) / Math.max(1, Math.abs(expected[i]));
-    if (!(err <= worst)) {
-      worst = err;
-      at = i;
-    }
-  }
-  expect(worst, `${what}: worst relative error at ${at} (js ${actual[at]}, c++ ${expected[at]})`).toBeLessThanOrEqual(tol);
-  return worst;
-}
 
 function statesOf(bs) {
   return { pos: Float64Array.from(bs.pos), rot: Float64Array.from(bs.rot_xyzw), linVel: Float64Array.from(bs.lin_vel), angVel: Float64Array.from(bs.ang_vel) };

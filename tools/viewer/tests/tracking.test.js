@@ -18,11 +18,9 @@ import { loadPolicy } from '../src/live/policy.js';
 import { ReplayNormals, Rng } from '../src/live/rng.js';
 import { hashedTextFeatures } from '../src/live/textFeatures.js';
 import { designatedBodies, extractGoals, positionError, TargetStream } from '../src/live/tracking.js';
+import { expectClose as expectCloseTo, liveDir, readJson, repo } from './fixtures.js';
 
 const here = path.dirname(fileURLToPath(import.meta.url));
-const repo = path.resolve(here, '../../..');
-const liveDir = path.resolve(process.env.MASKADAPT_LIVE_FIXTURES || path.resolve(here, '../live'));
-const readJson = (p) => JSON.parse(fs.readFileSync(p, 'utf8'));
 const character = readJson(path.resolve(here, '../live/character_humanoid.json'));
 const trackingChar = readJson(path.join(liveDir, 'tracking_humanoid.json'));
 const fxGen = readJson(path.join(liveDir, 'fixture_tracking_generator.json'));
@@ -32,17 +30,9 @@ const skel = makeSkeleton(trackingChar.skeleton);
 const gen = loadGenerator(genBytes, 'text_generator.bin', skel);
 const worst = {};
 
+/** fixtures.js's expectClose, keeping the worst difference per quantity (`group`) for the summary. */
 function expectClose(actual, expected, tol, what, group = what.replace(/^.*: /, '')) {
-  expect(actual.length, `${what}: length`).toBe(expected.length);
-  let w = 0, at = -1;
-  for (let i = 0; i < expected.length; ++i) {
-    const err = Math.abs(actual[i] - expected[i]) / Math.max(1, Math.abs(expected[i]));
-    if (!(err <= w)) {
-      w = err;
-      at = i;
-    }
-  }
-  expect(w, `${what}: worst relative error at ${at} (js ${actual[at]}, c++ ${expected[at]})`).toBeLessThanOrEqual(tol);
+  const w = expectCloseTo(actual, expected, tol, what);
   worst[group] = Math.max(worst[group] || 0, w);
   return w;
 }

@@ -25,14 +25,7 @@
 //   PD targets = offset + scale ⊙ â                (base/actor/action_offset, _scale)
 import { CheckpointError, parseCheckpoint, has, getFloat32, getFloat64, getInt64, getScalarInt, getScalarDouble, getString } from './checkpoint.js';
 import { buildPolicyInput, NUM_PARTS } from './features.js';
-
-const ACTIVATIONS = {
-  relu: (z) => (z > 0 ? z : 0),
-  elu: (z) => (z > 0 ? z : Math.expm1(z)),
-  silu: (z) => z / (1 + Math.exp(-z)),
-  tanh: Math.tanh,
-  identity: (z) => z,
-};
+import { ACTIVATIONS, Mlp, numMlpParams } from './mlp.js';
 
 export const POLICY_EXPORT_KIND = 'maskadapt.base_policy';
 export const RESIDUAL_EXPORT_KIND = 'maskadapt.residual_policy';
@@ -46,9 +39,10 @@ function jsonSection(ck, name, err) {
   }
 }
 
+/** The activation's name (relu when absent), checked to be one the page runs. */
 function activationOf(name, err, field) {
-  const act = ACTIVATIONS[name || 'relu'];
-  if (!act) throw err(field, `unknown activation '${name}'`);
+  const act = name || 'relu';
+  if (!ACTIVATIONS[act]) throw err(field, `unknown activation '${name}'`);
   return act;
 }
 
@@ -56,12 +50,14 @@ function checkHidden(hidden, err, field, what) {
   if (!Array.isArray(hidden) || hidden.some((h) => !Number.isInteger(h) || h <= 0)) throw err(field, `${what} must be a list of positive integers`);
 }
 
-/** Normalised Gaussian-MLP mean network stored under `prefix` (params, log_std, norm/*[, hidden_groups]). */
+/**
+ * Normalised Gaussian-MLP mean network stored under `prefix` (params, log_std, norm/*[, hidden_groups]);
+ * the network itself is mlp.js's Mlp. `activation`: its name (activationOf).
+ */
 export class MlpActor {
-  constructor(ck, prefix, inputDim, hidden, outputDim, act, err, flagRows = 0) {
+  constructor(ck, prefix, inputDim, hidden, outputDim, activation, err, flagRows = 0) {
     const sizes = [inputDim, ...hidden, outputDim];
-    let numParams = 0;
-    for (let l = 0; l + 1 < sizes.length; ++l) numParams += sizes[l + 1] * (sizes[l] + 1);
+    const numParams = numMlpParams(sizes);
     const params = getFloat32(ck, `${prefix}/params`);
     if (params.length !== numParams)
       throw err(`${prefix}/params`, `has ${params.length} parameters; the config's architecture (hidden [${hidden}], ${inputDim} inputs, ${outputDim} outputs) has ${numParams}`);
@@ -88,20 +84,10 @@ export class MlpActor {
       for (let i = 0; i < g.length; ++i) if (!(g[i] >= 0 && g[i] < flagRows)) throw err(`${prefix}/hidden_groups`, `body part index ${g[i]} out of range (entry ${i})`);
       this.hiddenGroups = Uint8Array.from(g);
     }
-    this.layers = [];
-    let off = 0;
-    for (let l = 0; l + 1 < sizes.length; ++l) {
-      const nin = sizes[l], nout = sizes[l + 1];
-      this.layers.push({ nin, nout, W: params.subarray(off, off + nout * nin), b: params.subarray(off + nout * nin, off + nout * (nin + 1)) });
-      off += nout * (nin + 1);
-    }
+    this.net = new Mlp(params, sizes, activation, `${prefix}/params`);
     this.inputDim = inputDim;
     this.outputDim = outputDim;
     this.hidden = hidden;
-    this.act = act;
-    const widest = Math.max(...this.layers.map((l) => l.nout));
-    this.bufA = new Float64Array(widest);
-    this.bufB = new Float64Array(widest);
     this.normalised = new Float32Array(inputDim);
     this.out = new Float32Array(outputDim);
   }
@@ -128,24 +114,7 @@ export class MlpActor {
 
   /** Mean output μ (Float32Array) for input x. */
   mean(x, out = this.out) {
-    let input = this.normalise(x);
-    let next = this.bufA, spare = this.bufB;
-    for (let l = 0; l < this.layers.length; ++l) {
-      const { nin, nout, W, b } = this.layers[l];
-      const last = l + 1 === this.layers.length;
-      const dst = last ? out : next;
-      for (let o = 0; o < nout; ++o) {
-        let acc = 0;
-        for (let i = 0; i < nin; ++i) acc += W[i * nout + o] * input[i];
-        acc = Math.fround(acc + b[o]);
-        dst[o] = last ? acc : Math.fround(this.act(acc));
-      }
-      if (!last) {
-        input = next;
-        [next, spare] = [spare, next];
-      }
-    }
-    return out;
+    return this.net.forward(this.normalise(x), out);
   }
 }
 
