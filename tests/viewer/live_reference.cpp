@@ -38,6 +38,8 @@
 
 #include <nlohmann/json.hpp>
 
+#include "live_reference_io.hpp"
+
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -48,13 +50,11 @@
 using namespace maskadapt;
 using nlohmann::json;
 
+using live_reference::body_states_json;
+using live_reference::vec;
+
 namespace {
 
-json vec(const auto& v) {
-  json a = json::array();
-  for (Index i = 0; i < v.size(); ++i) a.push_back(static_cast<double>(v[i]));
-  return a;
-}
 json quat_xyzw(const Quat& q) { return json::array({q.x(), q.y(), q.z(), q.w()}); }
 
 json pose_json(const KinematicState& s, const std::string& label) {
@@ -67,27 +67,8 @@ json pose_json(const KinematicState& s, const std::string& label) {
           {"qd", vec(s.qd)}};
 }
 
-json body_states_json(const BodyStates& b) {
-  json pos = json::array(), rot = json::array(), lin = json::array(), ang = json::array();
-  for (int i = 0; i < b.num_bodies(); ++i) {
-    for (int k = 0; k < 3; ++k) {
-      pos.push_back(b.pos(k, i));
-      lin.push_back(b.lin_vel(k, i));
-      ang.push_back(b.ang_vel(k, i));
-    }
-    for (double c : {b.rot[static_cast<std::size_t>(i)].x(), b.rot[static_cast<std::size_t>(i)].y(),
-                     b.rot[static_cast<std::size_t>(i)].z(), b.rot[static_cast<std::size_t>(i)].w()})
-      rot.push_back(c);
-  }
-  return {{"pos", pos}, {"rot_xyzw", rot}, {"lin_vel", lin}, {"ang_vel", ang}};
-}
-
 void write_json(const std::filesystem::path& p, const json& j, int indent = 1) {
-  std::ofstream f(p);
-  if (!f) throw Error("cannot open for writing", {p.string(), std::nullopt, {}});
-  f << j.dump(indent) << "\n";
-  if (!f) throw Error("write failed", {p.string(), std::nullopt, {}});
-  std::cout << "live_reference: wrote " << p.string() << "\n";
+  live_reference::write_json_file("live_reference", p, j, indent);
 }
 
 /// Start poses the page offers for a character (label, pose).
@@ -330,36 +311,27 @@ json residual_native_json(const std::string& model_path, const std::string& mode
 
 }  // namespace
 
-int main(int argc, char** argv) try {
-  if (argc < 3) {
-    std::cerr << "usage: maskadapt_viewer_live_reference MODELS_DIR OUT_DIR [--no-native]\n";
-    return 2;
-  }
-  const std::filesystem::path models = argv[1], out = argv[2];
-  const bool native = !(argc > 3 && std::string(argv[3]) == "--no-native");
-  std::filesystem::create_directories(out);
-  const MujocoCharacter& humanoid = mujoco_character("humanoid");
-  const MujocoCharacter& g1 = mujoco_character("g1");
-  const double th_h = load((models / "mask_mi_walk_bandai.bin").string(), humanoid).config.env.termination_height;
-  const double th_g = load((models / "g1_mask_mi_walk_bandai.bin").string(), g1).config.env.termination_height;
-  write_json(out / "character_humanoid.json", character_json(humanoid, "humanoid.xml", th_h));
-  write_json(out / "character_g1.json", character_json(g1, "g1.xml", th_g));
-  const std::vector<std::pair<std::string, const MujocoCharacter*>> list = {{"mask_mi_walk_bandai", &humanoid},
-                                                                            {"amp_walk_bandai", &humanoid},
-                                                                            {"g1_mask_mi_walk_bandai", &g1},
-                                                                            {"g1_amp_walk_bandai", &g1}};
-  for (const auto& [name, ch] : list) {
-    const std::string path = (models / (name + ".bin")).string();
-    write_json(out / ("fixture_" + name + ".json"), fixture_json(path, name, *ch), -1);  // (compact: numbers)
-    if (native) write_json(out / ("native_" + name + ".json"), native_json(path, name, *ch));
-  }
-  for (const std::string name : {"swim_ours_s1", "kick_cut_ours_s1"}) {
-    const std::string path = (models / "table2" / (name + ".bin")).string();
-    write_json(out / ("fixture_" + name + ".json"), residual_fixture_json(path, name, humanoid), -1);
-    if (native) write_json(out / ("native_" + name + ".json"), residual_native_json(path, name, humanoid));
-  }
-  return 0;
-} catch (const maskadapt::Error& e) {
-  std::cerr << "live_reference: " << e.what() << "\n";
-  return 1;
+int main(int argc, char** argv) {
+  return live_reference::reference_main(argc, argv, "live_reference", [](const std::filesystem::path& models, const std::filesystem::path& out, bool native) {
+    const MujocoCharacter& humanoid = mujoco_character("humanoid");
+    const MujocoCharacter& g1 = mujoco_character("g1");
+    const double th_h = load((models / "mask_mi_walk_bandai.bin").string(), humanoid).config.env.termination_height;
+    const double th_g = load((models / "g1_mask_mi_walk_bandai.bin").string(), g1).config.env.termination_height;
+    write_json(out / "character_humanoid.json", character_json(humanoid, "humanoid.xml", th_h));
+    write_json(out / "character_g1.json", character_json(g1, "g1.xml", th_g));
+    const std::vector<std::pair<std::string, const MujocoCharacter*>> list = {{"mask_mi_walk_bandai", &humanoid},
+                                                                              {"amp_walk_bandai", &humanoid},
+                                                                              {"g1_mask_mi_walk_bandai", &g1},
+                                                                              {"g1_amp_walk_bandai", &g1}};
+    for (const auto& [name, ch] : list) {
+      const std::string path = (models / (name + ".bin")).string();
+      write_json(out / ("fixture_" + name + ".json"), fixture_json(path, name, *ch), -1);  // (compact: numbers)
+      if (native) write_json(out / ("native_" + name + ".json"), native_json(path, name, *ch));
+    }
+    for (const std::string name : {"swim_ours_s1", "kick_cut_ours_s1"}) {
+      const std::string path = (models / "table2" / (name + ".bin")).string();
+      write_json(out / ("fixture_" + name + ".json"), residual_fixture_json(path, name, humanoid), -1);
+      if (native) write_json(out / ("native_" + name + ".json"), residual_native_json(path, name, humanoid));
+    }
+  });
 }

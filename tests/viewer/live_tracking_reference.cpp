@@ -39,6 +39,8 @@
 
 #include <nlohmann/json.hpp>
 
+#include "live_reference_io.hpp"
+
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -49,27 +51,10 @@
 using namespace maskadapt;
 using nlohmann::json;
 
+using live_reference::body_states_json;
+using live_reference::vec;
+
 namespace {
-
-json vec(const auto& v) {
-  json a = json::array();
-  for (Index i = 0; i < v.size(); ++i) a.push_back(static_cast<double>(v.data()[i]));
-  return a;
-}
-
-json body_states_json(const BodyStates& b) {
-  json pos = json::array(), rot = json::array(), lin = json::array(), ang = json::array();
-  for (int i = 0; i < b.num_bodies(); ++i) {
-    for (int k = 0; k < 3; ++k) {
-      pos.push_back(b.pos(k, i));
-      lin.push_back(b.lin_vel(k, i));
-      ang.push_back(b.ang_vel(k, i));
-    }
-    const Quat& q = b.rot[static_cast<std::size_t>(i)];
-    for (double c : {q.x(), q.y(), q.z(), q.w()}) rot.push_back(c);
-  }
-  return {{"pos", pos}, {"rot_xyzw", rot}, {"lin_vel", lin}, {"ang_vel", ang}};
-}
 
 /// A trajectory as flat column-major arrays (root_pos 3×N, root_rot_xyzw 4×N, q nd×N, body_pos 3nb×N).
 json trajectory_json(const tracking::Trajectory& t) {
@@ -80,11 +65,7 @@ json trajectory_json(const tracking::Trajectory& t) {
 }
 
 void write_json(const std::filesystem::path& p, const json& j, int indent = -1) {
-  std::ofstream f(p);
-  if (!f) throw Error("cannot open for writing", {p.string(), std::nullopt, {}});
-  f << j.dump(indent) << "\n";
-  if (!f) throw Error("write failed", {p.string(), std::nullopt, {}});
-  std::cout << "live_tracking_reference: wrote " << p.string() << "\n";
+  live_reference::write_json_file("live_tracking_reference", p, j, indent);
 }
 
 /// The start poses of live_reference.cpp with the H frames of history that end at each.
@@ -307,46 +288,37 @@ TrackingRun run_tracking(const std::string& model_path, const tracking::BuiltinG
 
 }  // namespace
 
-int main(int argc, char** argv) try {
-  if (argc < 3) {
-    std::cerr << "usage: maskadapt_viewer_live_tracking_reference MODELS_DIR OUT_DIR [--no-native]\n";
-    return 2;
-  }
-  const std::filesystem::path models = argv[1], out = argv[2];
-  const bool native = !(argc > 3 && std::string(argv[3]) == "--no-native");
-  std::filesystem::create_directories(out);
-  const MujocoCharacter& humanoid = mujoco_character("humanoid");
-  const auto g = tracking::BuiltinGenerator::load(models / "text_generator.bin", humanoid.skeleton);
-  write_json(out / "tracking_humanoid.json", tracking_character_json(humanoid, g), 1);
-  write_json(out / "fixture_tracking_generator.json", generator_fixture_json(g, humanoid));
-  const std::string model = (models / "table4" / "tracking_ours_s1.bin").string();
-  const auto st = starts(humanoid, g.history_frames());
-  const std::string fixture_schedule = "0:wave right hand,1:punch";
-  const TrackingRun rec = run_tracking(model, g, humanoid, st.front(), fixture_schedule, 2.0, 1, {0, 13, 29, 31, 47, 59});
-  write_json(out / "fixture_tracking_ours_s1.json",
-             {{"format", "maskadapt-live-fixture"}, {"model", "tracking_ours_s1"}, {"character", "humanoid"},
-              {"kind", "maskadapt.residual_policy"}, {"task", "tracking"}, {"start", st.front().label}, {"seed", 1},
-              {"schedule", fixture_schedule}, {"mean_tracking_error_2s", rec.mean_error},
-              {"note", "written by tests/viewer/live_tracking_reference.cpp from the C++ of include/maskadapt on MuJoCo " +
-                           std::string(mj_versionString())},
-              {"steps", rec.steps}});
-  if (native) {
-    json runs = json::array();
-    for (const std::string prompt : {"wave right hand", "punch", "arms high"}) {
-      const TrackingRun r = run_tracking(model, g, humanoid, st.front(), "0:" + prompt, 10.0, 1, {});
-      std::cout << "native tracking_ours_s1 | " << st.front().label << " | \"" << prompt << "\": mean tracking error " << r.mean_error
-                << " m, " << r.fall_times.size() << " fall(s), " << r.distance << " m\n";
-      runs.push_back({{"prompt", prompt}, {"start", st.front().label}, {"seed", 1}, {"mean_tracking_error_m", r.mean_error},
-                      {"falls", r.fall_times.size()}, {"first_fall_s", r.fall_times.empty() ? json(nullptr) : json(r.fall_times.front())},
-                      {"distance_m", r.distance}});
+int main(int argc, char** argv) {
+  return live_reference::reference_main(argc, argv, "live_tracking_reference", [](const std::filesystem::path& models, const std::filesystem::path& out, bool native) {
+    const MujocoCharacter& humanoid = mujoco_character("humanoid");
+    const auto g = tracking::BuiltinGenerator::load(models / "text_generator.bin", humanoid.skeleton);
+    write_json(out / "tracking_humanoid.json", tracking_character_json(humanoid, g), 1);
+    write_json(out / "fixture_tracking_generator.json", generator_fixture_json(g, humanoid));
+    const std::string model = (models / "table4" / "tracking_ours_s1.bin").string();
+    const auto st = starts(humanoid, g.history_frames());
+    const std::string fixture_schedule = "0:wave right hand,1:punch";
+    const TrackingRun rec = run_tracking(model, g, humanoid, st.front(), fixture_schedule, 2.0, 1, {0, 13, 29, 31, 47, 59});
+    write_json(out / "fixture_tracking_ours_s1.json",
+               {{"format", "maskadapt-live-fixture"}, {"model", "tracking_ours_s1"}, {"character", "humanoid"},
+                {"kind", "maskadapt.residual_policy"}, {"task", "tracking"}, {"start", st.front().label}, {"seed", 1},
+                {"schedule", fixture_schedule}, {"mean_tracking_error_2s", rec.mean_error},
+                {"note", "written by tests/viewer/live_tracking_reference.cpp from the C++ of include/maskadapt on MuJoCo " +
+                             std::string(mj_versionString())},
+                {"steps", rec.steps}});
+    if (native) {
+      json runs = json::array();
+      for (const std::string prompt : {"wave right hand", "punch", "arms high"}) {
+        const TrackingRun r = run_tracking(model, g, humanoid, st.front(), "0:" + prompt, 10.0, 1, {});
+        std::cout << "native tracking_ours_s1 | " << st.front().label << " | \"" << prompt << "\": mean tracking error " << r.mean_error
+                  << " m, " << r.fall_times.size() << " fall(s), " << r.distance << " m\n";
+        runs.push_back({{"prompt", prompt}, {"start", st.front().label}, {"seed", 1}, {"mean_tracking_error_m", r.mean_error},
+                        {"falls", r.fall_times.size()}, {"first_fall_s", r.fall_times.empty() ? json(nullptr) : json(r.fall_times.front())},
+                        {"distance_m", r.distance}});
+      }
+      write_json(out / "native_tracking_ours_s1.json",
+                 {{"format", "maskadapt-live-native"}, {"model", "tracking_ours_s1"}, {"character", "humanoid"},
+                  {"mujoco", mj_versionString()}, {"seconds", 10.0}, {"actions", "mean (deterministic)"}, {"runs", runs}},
+                 1);
     }
-    write_json(out / "native_tracking_ours_s1.json",
-               {{"format", "maskadapt-live-native"}, {"model", "tracking_ours_s1"}, {"character", "humanoid"},
-                {"mujoco", mj_versionString()}, {"seconds", 10.0}, {"actions", "mean (deterministic)"}, {"runs", runs}},
-               1);
-  }
-  return 0;
-} catch (const maskadapt::Error& e) {
-  std::cerr << "live_tracking_reference: " << e.what() << "\n";
-  return 1;
+  });
 }
