@@ -284,7 +284,7 @@ json residual_native_json(const std::string& model_path, const std::string& mode
   const FallCriteria fall = ch.fall_criteria(cfg.rl.env.termination_height);
   json runs = json::array();
   for (const auto& [label, pose] : start_poses(ch)) {
-    for (const std::string mask_text : {cfg.masks.front(), std::string("none")}) {
+    for (const std::string& mask_text : {cfg.masks.front(), std::string("none")}) {
       MujocoHumanoidSim sim(1, 1, ch);
       sim.reset(0, pose);
       const PartMask mask = PartMask::parse(mask_text, "mask");
