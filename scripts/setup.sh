@@ -36,6 +36,7 @@ packages=(
   libmujoco-dev
   clang            # libFuzzer targets (tests/fuzz) run in CI
   ccache           # compiler cache; CMakeLists.txt compiles through it when present (docs/development.md)
+  wordnet-base     # WordNet 3.0 dictionary files (/usr/share/wordnet): prompts' unseen words → known ones (tracking/lexicon.hpp)
 )
 [ "$with_torch" = 1 ] && packages+=(libtorch-dev)
 [ "$with_mpi" = 1 ] && packages+=(libopenmpi-dev openmpi-bin)
