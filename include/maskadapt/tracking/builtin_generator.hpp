@@ -14,8 +14,14 @@
 /// T, w, skeleton body names), the four networks' parameters ("vae.encoder", "vae.decoder",
 /// "denoiser.projection", "denoiser.net"), the normalisation statistics and "latent_scale"; and,
 /// optional (absent in older files): "generator.arms_pool" (JSON list of the arms prompts it was
-/// trained on: what partial tracking samples) and "generator.provenance" (JSON: command, data,
-/// seed, budget, git commit, machine — see models/README.md).
+/// trained on: what partial tracking samples), "generator.provenance" (JSON: command, data,
+/// seed, budget, git commit, machine — see models/README.md) and "generator.training_labels" (JSON
+/// list of the label sets it was trained on, each a list of texts: its vocabulary; written since
+/// issue 42, absent from the shipped models/text_generator.bin — `generator_training_labels` in
+/// prompt_words.hpp derives them from the training data then).
+///
+/// Words it has not seen: `set_prompt_mapper` (lexicon.hpp) maps a prompt's unknown words onto the
+/// training vocabulary before the hashed features are taken; prompts of known words are unchanged.
 ///
 /// Training (`train_generator`): stage 1 fits the VAE on all windows; stage 2 freezes it, encodes
 /// every window once to (μ, σ), and trains the denoiser on z = μ + σ ε / latent_scale with a
@@ -30,16 +36,19 @@
 #include <maskadapt/tracking/frame_features.hpp>
 #include <maskadapt/tracking/generator.hpp>
 #include <maskadapt/tracking/latent_denoiser.hpp>
+#include <maskadapt/tracking/lexicon.hpp>
 #include <maskadapt/tracking/motion_vae.hpp>
 #include <maskadapt/tracking/primitive_dataset.hpp>
 #include <maskadapt/tracking/text_encoder.hpp>
 
 #include <nlohmann/json.hpp>
 
+#include <algorithm>
 #include <chrono>
 #include <filesystem>
 #include <functional>
 #include <limits>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -88,7 +97,8 @@ class BuiltinGenerator {
 
   // ---- pieces ---------------------------------------------------------------------------------
   /// Text features (K): the condition's embedding when given, else hashed features of the text
-  /// (zeros for an empty prompt = unconditional).
+  /// (zeros for an empty prompt = unconditional) — of the text as the prompt mapper maps it when one
+  /// is set (throws, naming the prompt, when none of its words is known or maps onto one).
   VectorXf text_features(const TextCondition& c) const {
     if (c.embedding.size() > 0) {
       require(c.embedding.size() == config_.denoiser.text_features,
@@ -97,6 +107,7 @@ class BuiltinGenerator {
       require_finite(c.embedding, "embedding");
       return c.embedding;
     }
+    if (prompt_mapper_) return text_.features(prompt_mapper_->map(c.text).text);
     return text_.features(c.text);
   }
 
@@ -154,6 +165,7 @@ class BuiltinGenerator {
     ck.put_double("latent_scale", latent_scale_);
     if (!arms_pool_.empty()) ck.put_string("generator.arms_pool", nlohmann::json(arms_pool_).dump());
     if (!provenance_.empty()) ck.put_string("generator.provenance", provenance_.dump());
+    if (!training_labels_.empty()) ck.put_string("generator.training_labels", nlohmann::json(training_labels_).dump());
     save_checkpoint(path, ck);
   }
 
@@ -226,6 +238,15 @@ class BuiltinGenerator {
     } catch (const std::exception& e) {
       throw Error(std::string("malformed optional section: ") + e.what(), {file, {}, "generator.arms_pool/provenance"});
     }
+    if (ck.contains("generator.training_labels")) {
+      try {
+        g.training_labels_ =
+            nlohmann::json::parse(ck.get_string("generator.training_labels")).get<std::vector<std::vector<std::string>>>();
+      } catch (const std::exception& e) {
+        throw Error(std::string("malformed training labels (a JSON list of lists of texts): ") + e.what(),
+                    {file, {}, "generator.training_labels"});
+      }
+    }
     require(g.provenance_.is_null() || g.provenance_.is_object(), "provenance must be a JSON object",
             {file, {}, "generator.provenance"});
     return g;
@@ -262,6 +283,14 @@ class BuiltinGenerator {
   /// The arms prompts the generator was trained on (empty for older checkpoints).
   const std::vector<std::string>& arms_pool() const { return arms_pool_; }
   void set_arms_pool(std::vector<std::string> p) { arms_pool_ = std::move(p); }
+  /// The label sets it was trained on (each a list of texts; `train_generator` records them; empty
+  /// for checkpoints written before issue 42, such as the shipped one).
+  const std::vector<std::vector<std::string>>& training_labels() const { return training_labels_; }
+  void set_training_labels(std::vector<std::vector<std::string>> l) { training_labels_ = std::move(l); }
+  /// Maps prompts' unseen words onto the training vocabulary before featurisation (null: off, the
+  /// prompt is hashed as given). Shared, immutable: safe from several threads.
+  void set_prompt_mapper(std::shared_ptr<const PromptVocabularyMapper> m) { prompt_mapper_ = std::move(m); }
+  const PromptVocabularyMapper* prompt_mapper() const { return prompt_mapper_.get(); }
   /// How it was trained (JSON object; null for older checkpoints).
   const nlohmann::json& provenance() const { return provenance_; }
   void set_provenance(nlohmann::json p) {
@@ -285,6 +314,8 @@ class BuiltinGenerator {
   float latent_scale_ = 1.0f;
   std::vector<std::string> arms_pool_;
   nlohmann::json provenance_;
+  std::vector<std::vector<std::string>> training_labels_;
+  std::shared_ptr<const PromptVocabularyMapper> prompt_mapper_;
 };
 
 static_assert(TrajectoryGenerator<BuiltinGenerator>);
@@ -396,6 +427,12 @@ inline GeneratorTrainReport train_generator(BuiltinGenerator& g, const Primitive
     require(data.label.size() == static_cast<std::size_t>(data.size()), "dataset has no per-window labels",
             {{}, {}, "dataset.label"});
     std::vector<std::vector<VectorXf>> label_feats(data.label_texts.size());
+    {  // the distinct label sets: the generator's vocabulary (saved as "generator.training_labels")
+      std::vector<std::vector<std::string>> distinct;
+      for (const auto& texts : data.label_texts)
+        if (!texts.empty() && std::find(distinct.begin(), distinct.end(), texts) == distinct.end()) distinct.push_back(texts);
+      g.set_training_labels(std::move(distinct));
+    }
     for (std::size_t c = 0; c < data.label_texts.size(); ++c)
       for (const auto& t : data.label_texts[c]) label_feats[c].push_back(g.text_encoder().features(t));
     nn::Adam<float> adam(ac);
