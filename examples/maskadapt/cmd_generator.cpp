@@ -1,6 +1,7 @@
-// `maskadapt train-generator`, `maskadapt generate` and `maskadapt eval-generator`: the built-in
-// text-conditioned motion generator (tracking/builtin_generator.hpp; data: tracking/arm_data.hpp;
-// probe: tracking/arm_eval.hpp).
+// `maskadapt train-generator`, `maskadapt generate`, `maskadapt eval-generator` and
+// `maskadapt map-prompt`: the built-in text-conditioned motion generator
+// (tracking/builtin_generator.hpp; data: tracking/arm_data.hpp; probe: tracking/arm_eval.hpp;
+// unseen words: tracking/lexicon.hpp, tracking/prompt_words.hpp).
 #include "cli_checks.hpp"
 #include "command_registry.hpp"
 
@@ -12,6 +13,7 @@
 #include <maskadapt/tracking/arm_data.hpp>
 #include <maskadapt/tracking/arm_eval.hpp>
 #include <maskadapt/tracking/builtin_generator.hpp>
+#include <maskadapt/tracking/prompt_words.hpp>
 #include <maskadapt/tracking/text_pool.hpp>
 
 #include <algorithm>
@@ -22,6 +24,7 @@
 #include <iostream>
 #include <limits>
 #include <memory>
+#include <sstream>
 
 namespace {
 
@@ -67,10 +70,33 @@ struct TrainOptions {
 };
 
 struct GenerateOptions {
-  std::string checkpoint, text = "raise arms", bvh, rollout, from = "walk";
+  std::string checkpoint, text = "raise arms", bvh, rollout, from = "walk", data, wordnet;
   double seconds = 5.0, guidance = -1.0, temperature = -1.0;  ///< < 0: not given (the checkpoint's)
   unsigned long long seed = 1;
 };
+
+struct MapPromptOptions {
+  std::string checkpoint, data, wordnet;
+  std::vector<std::string> prompts;
+  bool paraphrases = false, vocabulary = false;
+};
+
+/// The generator's training labels and a prompt mapper over them (WordNet from --wordnet, else
+/// $MASKADAPT_WORDNET_DIR, else /usr/share/wordnet), installed into g. Says what it used.
+TrainingLabels install_prompt_mapper(BuiltinGenerator& g, const std::string& data_flag, const std::string& wordnet_flag) {
+  const Skeleton& skel = humanoid_skeleton();
+  TrainingLabels labels = generator_training_labels(g, data_root(data_flag), skel);
+  const std::filesystem::path wn = wordnet_flag.empty() ? default_wordnet_dir() : std::filesystem::path(wordnet_flag);
+  if (!wordnet_flag.empty()) (void)WordNet::load(wn);  // a named folder must hold the dictionary: say which file is missing
+  g.set_prompt_mapper(make_prompt_mapper(labels.sets, wn));
+  std::cout << "vocabulary: " << g.prompt_mapper()->vocabulary().size() << " words of " << labels.sets.size()
+            << " training label sets (" << labels.source << "); "
+            << (g.prompt_mapper()->wordnet() ? "unseen words mapped through WordNet in " + wn.string()
+                                             : "WordNet not found in " + wn.string() +
+                                                   " (apt-get install wordnet-base): unseen words are dropped, not mapped")
+            << "\n";
+  return labels;
+}
 
 struct EvalOptions {
   std::string checkpoint, data, out, save, probe;  ///< probe empty: the library default (ArmProbeConfig{})
@@ -223,6 +249,16 @@ void run_generate(const GenerateOptions& o) {
   if (o.temperature > 0) g.config().temperature = o.temperature;
   require(o.seconds > 0 && o.seconds <= 600, "must be a number in (0, 600]", {{}, {}, "--seconds"});  // checked when parsed, too
   const auto schedule = parse_text_schedule(o.text);
+  try {
+    (void)install_prompt_mapper(g, o.data, o.wordnet);
+  } catch (const Error& e) {  // no record of the training labels and no data to derive them from
+    std::cout << "prompts featurised as given, unseen words not mapped: " << e.what() << "\n";
+  }
+  if (g.prompt_mapper())
+    for (const auto& tt : schedule) {
+      const std::string line = g.prompt_mapper()->map(tt.text).describe();  // throws for a prompt of unknown words only
+      std::cout << "prompt " << line << "\n";
+    }
   const Trajectory hist = history_from(o.from, skel, g.history_frames());
   Rng rng(o.seed);
   const Index n = static_cast<Index>(std::lround(o.seconds * 30.0));
@@ -253,6 +289,65 @@ void run_generate(const GenerateOptions& o) {
     eval::write_rollout(r, o.rollout);
     std::cout << "wrote " << o.rollout << "\n";
   }
+}
+
+void print_paraphrase_table(const BuiltinGenerator& g, const TrainingLabels& labels);
+
+void run_map_prompt(const MapPromptOptions& o) {
+  const Skeleton& skel = humanoid_skeleton();
+  const std::string path = o.checkpoint.empty() ? shipped_generator() : o.checkpoint;
+  BuiltinGenerator g = BuiltinGenerator::load(path, skel);
+  const TrainingLabels labels = install_prompt_mapper(g, o.data, o.wordnet);
+  if (o.vocabulary) {
+    std::cout << "vocabulary:";
+    for (const auto& w : g.prompt_mapper()->vocabulary()) std::cout << " " << w;
+    std::cout << "\n";
+  }
+  const auto label_of = [&](const PromptLanding& l) { return labels.sets[l.label_set].front(); };
+  std::vector<std::string> refused;
+  for (const auto& p : o.prompts) {
+    try {
+      const PromptLanding l = land_prompt(g, p, labels.sets);
+      std::cout << "prompt " << l.mapping.describe() << "\n  lands on '" << label_of(l) << "' (nearest training text '"
+                << l.nearest_text << "', cosine " << std::fixed << std::setprecision(3) << l.cosine << ")\n";
+      std::cout.unsetf(std::ios::floatfield);
+    } catch (const Error& e) {  // a prompt of unknown words only: say so, go on with the others
+      std::cout << "prompt '" << p << "': " << e.what() << "\n";
+      refused.push_back(p);
+    }
+  }
+  if (o.paraphrases) print_paraphrase_table(g, labels);
+  require(refused.empty(), std::to_string(refused.size()) + " prompt(s) have no known word and none maps onto one", {{}, {}, "prompts"});
+}
+
+/// The table of docs/generator.md "Words it has not seen": each built-in paraphrase, its mapping,
+/// where it lands, and the share that lands on the label meant.
+void print_paraphrase_table(const BuiltinGenerator& g, const TrainingLabels& labels) {
+  const auto label_of = [&](const PromptLanding& l) { return labels.sets[l.label_set].front(); };
+  std::cout << "\n| paraphrase | mapped prompt | lands on (nearest training text, cosine) | meant | correct |\n| --- | --- | --- | --- | --- |\n";
+  int correct = 0, total = 0;
+  for (const auto& para : unseen_word_paraphrases()) {
+    std::string mapped, landed, ok = "no";
+    try {
+      const PromptLanding l = land_prompt(g, para.text, labels.sets);
+      mapped = l.mapping.changed() ? l.mapping.text : "(unchanged)";
+      std::ostringstream c;
+      c << std::fixed << std::setprecision(3) << l.cosine;
+      landed = label_of(l) + " ('" + l.nearest_text + "', " + c.str() + ")";
+      if (same_behaviour(l.nearest_text, para.intended, labels.sets)) {
+        ok = "yes";
+        ++correct;
+      }
+    } catch (const Error&) {
+      mapped = "error: no known word";
+      landed = "—";
+    }
+    ++total;
+    std::cout << "| " << para.text << " | " << mapped << " | " << landed << " | " << para.intended << " | " << ok << " |\n";
+  }
+  std::cout << "\n" << correct << " of " << total << " paraphrases land on the label meant ("
+            << std::fixed << std::setprecision(1) << 100.0 * correct / total << " %)\n";
+  std::cout.unsetf(std::ios::floatfield);
 }
 
 void print_report(const ArmFollowingReport& r, const std::string& title) {
@@ -416,7 +511,19 @@ const bool registered = maskadapt::cli::register_command([](CLI::App& app) {
   gen->add_option("--seed", gopt->seed, "random seed")->transform(non_negative_integer());
   gen->add_option("--bvh", gopt->bvh, "write the motion as BVH");
   gen->add_option("--rollout", gopt->rollout, "write the motion as a rollout for the web viewer (tools/viewer), the prompts as its text track");
+  gen->add_option("--data", gopt->data, "data directory holding motions/, to derive the training vocabulary of a checkpoint that does not record it (default: $MASKADAPT_DATA_DIR, else ../shared/data)");
+  gen->add_option("--wordnet", gopt->wordnet, "WordNet dictionary folder for unseen words (default: $MASKADAPT_WORDNET_DIR, else /usr/share/wordnet)");
   gen->callback([gopt] { run_generate(*gopt); });
+
+  auto mopt = std::make_shared<MapPromptOptions>();
+  auto* mp = app.add_subcommand("map-prompt", "show how prompts' unseen words map onto the generator's training vocabulary (WordNet) and which training label each lands on");
+  mp->add_option("prompts", mopt->prompts, "prompts to map");
+  mp->add_option("--checkpoint", mopt->checkpoint, "generator checkpoint (default: the shipped models/text_generator.bin)");
+  mp->add_option("--data", mopt->data, "data directory holding motions/, to derive the training labels of a checkpoint that does not record them (default: $MASKADAPT_DATA_DIR, else ../shared/data)");
+  mp->add_option("--wordnet", mopt->wordnet, "WordNet dictionary folder (default: $MASKADAPT_WORDNET_DIR, else /usr/share/wordnet)");
+  mp->add_flag("--paraphrases", mopt->paraphrases, "also the table of the built-in paraphrases (docs/generator.md): mapped prompt, landing label, % correct");
+  mp->add_flag("--vocabulary", mopt->vocabulary, "list the vocabulary");
+  mp->callback([mopt] { run_map_prompt(*mopt); });
 
   auto eopt = std::make_shared<EvalOptions>();
   auto* ev = app.add_subcommand("eval-generator", "does the generator follow its arms prompts? classifier accuracy, confusion, diversity, paraphrases (needs the shared data)");
