@@ -56,7 +56,8 @@ struct Args {
   std::vector<double> objective_weights;
   long long iterations = -1, seed = -1;
   double minutes = -1, switch_rate = -1, episode_seconds = -1, term_threshold = -1, residual_std = -1, blend_resets = -1,
-         location_facing_weight = -1, location_position_weight = -1, strike_approach_weight = -1, location_divergence = -1;
+         location_facing_weight = -1, location_position_weight = -1, strike_approach_weight = -1, location_divergence = -1,
+         location_arrive_distance = -1, location_reach_bonus = -1;
   std::vector<double> location_distance;  ///< [min, max] (m)
   std::vector<std::string> part_std;      ///< "PARTS=σ" items
   std::vector<Index> hidden;
@@ -123,6 +124,8 @@ tasks::AnyGoalTask<MujocoHumanoidSim> make_goal_task(const std::string& task, co
     lc.min_distance = c.location_min_distance;
     lc.max_distance = c.location_max_distance;
     lc.divergence_distance = c.location_divergence;
+    lc.arrive_distance = c.location_arrive_distance;
+    lc.reach_bonus = c.location_reach_bonus;
     lc.seed = seed;
     lc.first_env = first_env;
     return tasks::LocationTask(lc, N);
@@ -270,6 +273,8 @@ void run_train_residual(const Args& a) {
       c.location_max_distance = a.location_distance[1];
     }
     if (a.location_divergence >= 0) c.location_divergence = a.location_divergence;
+    if (a.location_arrive_distance >= 0) c.location_arrive_distance = a.location_arrive_distance;
+    if (a.location_reach_bonus >= 0) c.location_reach_bonus = a.location_reach_bonus;
     if (!a.part_std.empty()) c.residual_part_std = parse_part_std(a.part_std, "--part-std");
     if (a.strike_approach_weight >= 0) c.strike_approach_weight = a.strike_approach_weight;
     if (!a.objective_weights.empty()) c.objective_weights = a.objective_weights;
@@ -314,6 +319,8 @@ void run_train_residual(const Args& a) {
                               {"location_position_weight", "--location-position-weight"},
                               {"strike_approach_weight", "--strike-approach-weight"},
                               {"location_distance", "--location-distance"}, {"location_divergence", "--location-divergence"},
+                              {"location_arrive_distance", "--location-arrive-distance"},
+                              {"location_reach_bonus", "--location-reach-bonus"},
                               {"residual_part_std", "--part-std"}});
   require(c.task != "composition" || !c.new_motions.empty(), "composition needs --new-motion", {{}, {}, "--new-motion"});
 
@@ -525,7 +532,7 @@ void run_play(const PlayArgs& a, const std::string& command_line) {
       eval::add_frame(roll, b, m[0], sim.contacts(0));
       if (goal) {  // what the policy was asked this step, then the task's bookkeeping (a play never resets)
         add_scene_frame(*roll.scene, goal, sim, b);
-        goal_reward += goal.after_step(sim, 0, false).reward;
+        goal_reward += goal.after_step(sim, 0, tasks::EpisodeEnd::none).reward;
       }
       if (tracking_task) {
         track_err += tracking::position_error(bodies, targets, t + 1, b);
@@ -548,7 +555,7 @@ void run_play(const PlayArgs& a, const std::string& command_line) {
   std::cout << "play-residual: " << steps << " steps, final root height " << sim.body_states(0).pos(2, 0) << " m";
   if (tracking_task) std::cout << ", mean tracking error " << track_err / static_cast<double>(steps) << " m";
   if (goal) std::cout << ", mean " << c.task << " reward " << goal_reward / static_cast<double>(steps) << ", trials ended "
-                      << goal.trials().trials << " (successes " << goal.trials().successes << ")";
+                      << goal.trials().trials << " (successes " << goal.trials().successes << ")";  // (a play has no time limit)
   std::cout << "\n";
   if (!a.bvh.empty()) {
     bvh::write(a.bvh, clip_to_bvh(out, skel));
@@ -619,14 +626,15 @@ void run_eval(const EvalArgs& a) {
     };
     const GoalEvalResult r = c.method == "adaptnet" ? evaluate.template operator()<adapt::AdaptNetPolicy<float>>()
                                                     : evaluate.template operator()<adapt::ResidualPolicy<float>>();
-    std::printf("eval-residual %s: success %.1f %% (95 %% CI %.1f-%.1f %%) over %lld trials; %d envs x %lld steps, mask %s, "
-                "mean %s reward %.3f, fall rate %.3f\n",
-                task.c_str(), 100 * r.trials.rate(), 100 * r.ci_low, 100 * r.ci_high, r.trials.trials, a.envs, r.steps,
-                mask.to_string().c_str(), task.c_str(), r.mean_reward, r.fall_rate);
+    std::printf("eval-residual %s: success %.1f %% (95 %% CI %.1f-%.1f %%) over %lld trials (%lld cut short by the "
+                "episode's time limit, not counted); %d envs x %lld steps, mask %s, mean %s reward %.3f, fall rate %.3f\n",
+                task.c_str(), 100 * r.trials.rate(), 100 * r.ci_low, 100 * r.ci_high, r.trials.trials, r.trials.censored,
+                a.envs, r.steps, mask.to_string().c_str(), task.c_str(), r.mean_reward, r.fall_rate);
     j["envs"] = a.envs;
     j["mask"] = mask.to_string();
     j["trials"] = r.trials.trials;
     j["successes"] = r.trials.successes;
+    j["censored_trials"] = r.trials.censored;  // cut short by the episode's time limit, in neither count
     j["success_rate"] = r.trials.rate();
     j["ci95"] = {r.ci_low, r.ci_high};
     j["steps"] = r.steps;
@@ -756,6 +764,14 @@ const bool registered = maskadapt::cli::register_command([](CLI::App& app) {
   keep(c->add_option("--location-divergence", a->location_divergence,
                      "location: end the episode when the target is this much farther than when drawn (m; default 0: never)"))
       ->check(non_negative_real());
+  keep(c->add_option("--location-arrive-distance", a->location_arrive_distance,
+                     "location, training only: the velocity term's target speed falls to 0 at the target, "
+                     "v*·min(1, d/RHO) (m; default 0: v* everywhere, the paper's)"))
+      ->check(real_in(0, 100));
+  keep(c->add_option("--location-reach-bonus", a->location_reach_bonus,
+                     "location, training only: reward on reaching a target, which is then redrawn at once "
+                     "(default 0: none, the paper's)"))
+      ->check(real_in(0, 1000));
   keep(c->add_option("--strike-approach-weight", a->strike_approach_weight,
                      "strike: weight of the approach shaping term in the reward (default 0: the paper's)"))
       ->check(probability());

@@ -163,6 +163,12 @@ endforeach()
 foreach(v -0.5 1.5 nan abc)
   bad(--location-position-weight ${v} ${R} --task location --location-position-weight ${v})
 endforeach()
+foreach(v -1 nan inf abc 101)
+  bad(--location-arrive-distance ${v} ${R} --task location --location-arrive-distance ${v})
+endforeach()
+foreach(v -1 nan inf abc 1001)
+  bad(--location-reach-bonus ${v} ${R} --task location --location-reach-bonus ${v})
+endforeach()
 bad(--task foo ${R} --task foo)
 bad(--method bar ${R} --method bar)
 bad(--gain big ${R} --gain big)
@@ -192,6 +198,10 @@ if(HAS_MUJOCO)
       --iterations 1 --out ${OUT}/never)
   # the location goal flags are the location task's; facing + position weights at most 1
   bad(--location-divergence - train-residual --method scratch --task heading --location-divergence 2
+      --iterations 1 --out ${OUT}/never)
+  bad(--location-arrive-distance - train-residual --method scratch --task heading --location-arrive-distance 2
+      --iterations 1 --out ${OUT}/never)
+  bad(--location-reach-bonus - train-residual --method scratch --task strike --location-reach-bonus 5
       --iterations 1 --out ${OUT}/never)
   bad(--location-distance - train-residual --method scratch --task strike --location-distance 1 3
       --iterations 1 --out ${OUT}/never)

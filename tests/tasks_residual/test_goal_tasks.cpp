@@ -112,6 +112,69 @@ TEST(LocationTask, PositionShapingAddsAsesDistanceKernelOutsideTheRadius) {
   }
 }
 
+// The arrive shaping: the velocity term's target speed is v*·min(1, d/ρ), so slowing down near the
+// target pays; beyond ρ, and with ρ = 0, the reward is unchanged.
+TEST(LocationTask, ArriveShapingLowersTheTargetSpeedInsideRho) {
+  tasks::LocationConfig c;  // R 0.5 m, v* 1 m/s, k 4
+  c.facing_weight = 0.5;
+  c.arrive_distance = 2.0;
+  const Vec3 target(3, 0, 0);
+  const Quat ahead = yaw(0);
+  EXPECT_DOUBLE_EQ(c.target_speed(4.0), 1.0);
+  EXPECT_DOUBLE_EQ(c.target_speed(1.0), 0.5);
+  // 1 m away, facing it: at 0.5 m/s the velocity term is 1, at 1 m/s it is e^(−4·0.25)
+  EXPECT_NEAR(tasks::location_reward(Vec3(2, 0, 0.9), ahead, Vec3(0.5, 0, 0), target, c), 0.5 + 0.5, 1e-12);
+  EXPECT_NEAR(tasks::location_reward(Vec3(2, 0, 0.9), ahead, Vec3(1.0, 0, 0), target, c),
+              0.5 * std::exp(-1.0) + 0.5, 1e-12);
+  // 2.5 m away (beyond ρ): v* itself
+  EXPECT_NEAR(tasks::location_reward(Vec3(0.5, 0, 0.9), ahead, Vec3(1.0, 0, 0), target, c), 1.0, 1e-12);
+  // ρ = 0: the facing-shaped reward, v* everywhere
+  tasks::LocationConfig off = c;
+  off.arrive_distance = 0;
+  EXPECT_NEAR(tasks::location_reward(Vec3(2, 0, 0.9), ahead, Vec3(1.0, 0, 0), target, off), 1.0, 1e-12);
+  // the goal observation keeps showing v* (evaluation runs ρ = 0)
+  VectorXf g(4);
+  tasks::location_goal(Vec3(2, 0, 0.9), ahead, target, c, g);
+  EXPECT_FLOAT_EQ(g[2], 1.0f);
+  for (const double bad : {-0.5, 101.0, std::nan("")}) {
+    c.arrive_distance = bad;
+    expect_error_naming([&] { c.validate(); }, "location.arrive_distance", "arrive_distance " + std::to_string(bad));
+  }
+}
+
+// The reach bonus: the step that first comes within R earns B more, closes the trial as a success
+// and draws the next target at once (from the root, at a distance in [min, max]).
+TEST(LocationTask, ReachBonusPaysOnceAndDrawsTheNextTarget) {
+  TinyWalkerSim sim(1);
+  tasks::LocationConfig c;
+  c.reach_bonus = 10;
+  tasks::LocationTask task(c, 1);
+  task.new_episode(sim, 0);
+  const Vec3 root = sim.body_states(0).pos.col(0);
+  task.set_target(0, Vec3(root.x() + 0.3, root.y(), 0.0), 100);  // within R
+  const tasks::GoalStep hit = task.after_step(sim, 0, tasks::EpisodeEnd::none);
+  EXPECT_FLOAT_EQ(hit.reward, 1.0f + 10.0f);
+  EXPECT_FALSE(hit.terminate);
+  EXPECT_EQ(task.trials().trials, 1);
+  EXPECT_EQ(task.trials().successes, 1);
+  const double d = (task.target(0) - root).head<2>().norm();  // the next target, drawn at once
+  EXPECT_GE(d, c.min_distance - 1e-9);
+  EXPECT_LE(d, c.max_distance + 1e-9);
+  const tasks::GoalStep next = task.after_step(sim, 0, tasks::EpisodeEnd::none);  // not there yet: no bonus
+  EXPECT_LT(next.reward, 1.0f);
+  EXPECT_EQ(task.trials().trials, 1);
+  // without the bonus the trial stays open until its goal expires, and the reward is 1
+  tasks::LocationTask plain(tasks::LocationConfig{}, 1);
+  plain.new_episode(sim, 0);
+  plain.set_target(0, Vec3(root.x() + 0.3, root.y(), 0.0), 100);
+  EXPECT_EQ(plain.after_step(sim, 0, tasks::EpisodeEnd::none).reward, 1.0f);
+  EXPECT_EQ(plain.trials().trials, 0);
+  for (const double bad : {-1.0, 1001.0, std::nan("")}) {
+    c.reach_bonus = bad;
+    expect_error_naming([&] { c.validate(); }, "location.reach_bonus", "reach_bonus " + std::to_string(bad));
+  }
+}
+
 TEST(LocationTask, GoalIsDirectionSpeedDistanceInTheHeadingFrame) {
   tasks::LocationConfig c;
   c.speed = 1.2;
@@ -142,16 +205,22 @@ TEST(LocationTask, CharacterAtTheTargetGetsOneAndSucceeds) {
   const Vec3 root = sim.body_states(0).pos.col(0);
   task.set_target(0, Vec3(root.x() + 0.2, root.y(), 0.0), 2);  // within R: reached
   task.set_target(1, Vec3(root.x() + 4.0, root.y(), 0.0), 2);  // 4 m away: not reached
-  EXPECT_EQ(task.after_step(sim, 0, false).reward, 1.0f);
-  EXPECT_LT(task.after_step(sim, 1, false).reward, 1.0f);
+  EXPECT_EQ(task.after_step(sim, 0, tasks::EpisodeEnd::none).reward, 1.0f);
+  EXPECT_LT(task.after_step(sim, 1, tasks::EpisodeEnd::none).reward, 1.0f);
   EXPECT_EQ(task.trials().trials, 0);
-  task.after_step(sim, 0, false);  // second step: both goals expire, trials close
-  task.after_step(sim, 1, false);
+  task.after_step(sim, 0, tasks::EpisodeEnd::none);  // second step: both goals expire, trials close
+  task.after_step(sim, 1, tasks::EpisodeEnd::none);
   EXPECT_EQ(task.trials().trials, 2);
   EXPECT_EQ(task.trials().successes, 1);
-  task.after_step(sim, 1, true);  // the episode ended before env 1 reached its new target: a failure
+  task.after_step(sim, 1, tasks::EpisodeEnd::terminated);  // env 1 fell before it reached its new target: a failure
   EXPECT_EQ(task.trials().trials, 3);
   EXPECT_EQ(task.trials().successes, 1);
+  EXPECT_EQ(task.trials().censored, 0);
+  // the time limit cut env 0's new trial short: censored, in neither count
+  task.after_step(sim, 0, tasks::EpisodeEnd::time_limit);
+  EXPECT_EQ(task.trials().trials, 3);
+  EXPECT_EQ(task.trials().successes, 1);
+  EXPECT_EQ(task.trials().censored, 1);
 }
 
 // CML's divergence termination: the episode ends, the trial failed unless the target was reached,
@@ -172,9 +241,9 @@ TEST(LocationTask, DivergenceEndsTheEpisodeOnceTheTargetIsDFartherThanWhenDrawn)
   const double d0 = std::hypot(t.x(), t.y());  // the distance when drawn, in [1, 5] m
   const Vec3 away = -Vec3(t.x(), t.y(), 0) / d0;  // from the target through the start
   put_root(1.9 * away.x(), 1.9 * away.y());        // d0 + 1.9: goes on
-  EXPECT_FALSE(task.after_step(sim, 0, false).terminate);
+  EXPECT_FALSE(task.after_step(sim, 0, tasks::EpisodeEnd::none).terminate);
   put_root(2.1 * away.x(), 2.1 * away.y());        // d0 + 2.1: ends, a failed trial
-  EXPECT_TRUE(task.after_step(sim, 0, false).terminate);
+  EXPECT_TRUE(task.after_step(sim, 0, tasks::EpisodeEnd::none).terminate);
   EXPECT_EQ(task.trials().trials, 1);
   EXPECT_EQ(task.trials().successes, 0);
   // reached first, then walked off: the episode still ends, the trial succeeded
@@ -182,10 +251,10 @@ TEST(LocationTask, DivergenceEndsTheEpisodeOnceTheTargetIsDFartherThanWhenDrawn)
   task.new_episode(sim, 0);
   const Vec3 t2 = task.target(0);
   put_root(t2.x(), t2.y());
-  EXPECT_FALSE(task.after_step(sim, 0, false).terminate);
+  EXPECT_FALSE(task.after_step(sim, 0, tasks::EpisodeEnd::none).terminate);
   const double d2 = std::hypot(t2.x(), t2.y());
   put_root(-t2.x() / d2 * 2.5, -t2.y() / d2 * 2.5);
-  EXPECT_TRUE(task.after_step(sim, 0, false).terminate);
+  EXPECT_TRUE(task.after_step(sim, 0, tasks::EpisodeEnd::none).terminate);
   EXPECT_EQ(task.trials().trials, 2);
   EXPECT_EQ(task.trials().successes, 1);
   // the distance at the draw travels in the checkpoint
@@ -198,13 +267,13 @@ TEST(LocationTask, DivergenceEndsTheEpisodeOnceTheTargetIsDFartherThanWhenDrawn)
   const Vec3 t3 = back.target(0);
   const double d3 = std::hypot(t3.x(), t3.y());
   put_root(-t3.x() / d3 * 2.1, -t3.y() / d3 * 2.1);
-  EXPECT_TRUE(back.after_step(sim, 0, false).terminate);
+  EXPECT_TRUE(back.after_step(sim, 0, tasks::EpisodeEnd::none).terminate);
   // D = 0 (the paper's task): never
   tasks::LocationTask never(tasks::LocationConfig{}, 1);
   put_root(0, 0);
   never.new_episode(sim, 0);
   put_root(-40 * never.target(0).x(), -40 * never.target(0).y());
-  EXPECT_FALSE(never.after_step(sim, 0, false).terminate);
+  EXPECT_FALSE(never.after_step(sim, 0, tasks::EpisodeEnd::none).terminate);
   tasks::LocationConfig bad;
   bad.divergence_distance = -1;
   expect_error_naming([&] { bad.validate(); }, "location.divergence_distance", "a negative D");
@@ -234,16 +303,28 @@ TEST(HeadingTask, SuccessIsTheMeanVelocityAlongTheDirectionWithinTolerance) {
   c.success_window = 3;
   tasks::HeadingTask task(c, 1);
   task.set_goal(0, Vec3(1, 0, 0), 0.4, 3);  // |0.4 − 0| < 0.5: success once the window is full
-  task.after_step(sim, 0, false);
+  task.after_step(sim, 0, tasks::EpisodeEnd::none);
   EXPECT_FALSE(task.success(0));  // 1 of 3 steps
-  task.after_step(sim, 0, false);
-  task.after_step(sim, 0, false);  // goal expires: trial closes
+  task.after_step(sim, 0, tasks::EpisodeEnd::none);
+  task.after_step(sim, 0, tasks::EpisodeEnd::none);  // goal expires: trial closes
   EXPECT_EQ(task.trials().trials, 1);
   EXPECT_EQ(task.trials().successes, 1);
   task.set_goal(0, Vec3(1, 0, 0), 0.6, 3);  // |0.6 − 0| ≥ 0.5: failure
-  for (int i = 0; i < 3; ++i) task.after_step(sim, 0, false);
+  for (int i = 0; i < 3; ++i) task.after_step(sim, 0, tasks::EpisodeEnd::none);
   EXPECT_EQ(task.trials().trials, 2);
   EXPECT_EQ(task.trials().successes, 1);
+  // a trial the time limit cuts short is censored (even one whose window already says success);
+  // one a fall ends is tested as it stands
+  task.set_goal(0, Vec3(1, 0, 0), 0.4, 10);
+  for (int i = 0; i < 3; ++i) task.after_step(sim, 0, tasks::EpisodeEnd::none);
+  task.after_step(sim, 0, tasks::EpisodeEnd::time_limit);
+  EXPECT_EQ(task.trials().trials, 2);
+  EXPECT_EQ(task.trials().censored, 1);
+  task.set_goal(0, Vec3(1, 0, 0), 0.4, 10);
+  for (int i = 0; i < 3; ++i) task.after_step(sim, 0, tasks::EpisodeEnd::none);
+  task.after_step(sim, 0, tasks::EpisodeEnd::terminated);
+  EXPECT_EQ(task.trials().trials, 3);
+  EXPECT_EQ(task.trials().successes, 2);
   EXPECT_THROW(task.set_goal(0, Vec3(1, 1, 0), 1.0, 3), Error);  // not a unit vector
 }
 
@@ -289,7 +370,7 @@ TEST(StrikeTask, BoxTiltedBy80DegreesSucceedsBy70DoesNot) {
     task.new_episode(sim, 0);
     sim.flags_[0] = {0, 0, 0, 1, 0, 0};  // the right arm touches first
     sim.boxes_[0].rot = tilt(deg);
-    const auto step = task.after_step(sim, 0, false);
+    const auto step = task.after_step(sim, 0, tasks::EpisodeEnd::none);
     EXPECT_NEAR(step.reward, 1.0 - std::cos(deg * M_PI / 180.0), 1e-6) << deg;
     EXPECT_EQ(task.success(0), deg == 80.0) << deg;
   }
@@ -304,13 +385,13 @@ TEST(StrikeTask, OnlyAStrikeWithTheHandsCounts) {
   // a leg touches first, the box falls: no success; the trial closes as a failure when the episode ends
   task.new_episode(sim, 0);
   sim.flags_[0] = {0, 0, 0, 0, 1, 0};
-  task.after_step(sim, 0, false);
+  task.after_step(sim, 0, tasks::EpisodeEnd::none);
   EXPECT_EQ(task.first_contact(0), tasks::FirstContact::Foreign);
   sim.flags_[0] = {0, 0, 1, 0, 0, 0};
   sim.boxes_[0].rot = fallen;
-  task.after_step(sim, 0, false);
+  task.after_step(sim, 0, tasks::EpisodeEnd::none);
   EXPECT_FALSE(task.success(0));
-  task.after_step(sim, 0, true);
+  task.after_step(sim, 0, tasks::EpisodeEnd::time_limit);  // (the trial is the episode: counted)
   EXPECT_EQ(task.trials().trials, 1);
   EXPECT_EQ(task.trials().successes, 0);
   // hand first (together with the trunk), then the fall: success
@@ -318,20 +399,20 @@ TEST(StrikeTask, OnlyAStrikeWithTheHandsCounts) {
   EXPECT_EQ(task.first_contact(0), tasks::FirstContact::None);
   sim.boxes_[0].rot = Quat::Identity();
   sim.flags_[0] = {1, 0, 1, 0, 0, 0};
-  task.after_step(sim, 0, false);
+  task.after_step(sim, 0, tasks::EpisodeEnd::none);
   EXPECT_EQ(task.first_contact(0), tasks::FirstContact::Strike);
   sim.flags_[0] = {0, 0, 0, 0, 0, 0};
   sim.boxes_[0].rot = fallen;
-  task.after_step(sim, 0, false);
+  task.after_step(sim, 0, tasks::EpisodeEnd::none);
   EXPECT_TRUE(task.success(0));
-  task.after_step(sim, 0, true);
+  task.after_step(sim, 0, tasks::EpisodeEnd::terminated);
   EXPECT_EQ(task.trials().successes, 1);
   // with end_on_foreign_contact, a foreign first contact ends the episode at once
   c.end_on_foreign_contact = true;
   tasks::StrikeTask strict(c, 1);
   strict.new_episode(sim, 0);
   sim.flags_[0] = {0, 0, 0, 0, 0, 1};
-  EXPECT_TRUE(strict.after_step(sim, 0, false).terminate);
+  EXPECT_TRUE(strict.after_step(sim, 0, tasks::EpisodeEnd::none).terminate);
   EXPECT_EQ(strict.trials().trials, 1);
 }
 
@@ -418,13 +499,13 @@ TEST(GoalTask, SaveAndLoadRestoreGoalsAndStreams) {
   c.schedule = {2, 2};
   tasks::HeadingTask a(c, 2), b(c, 2);
   for (Index e = 0; e < 2; ++e) a.new_episode(sim, e);
-  a.after_step(sim, 0, false);
+  a.after_step(sim, 0, tasks::EpisodeEnd::none);
   Checkpoint ck;
   a.save(ck, "g/");
   b.load(ck, "g/");
   for (int i = 0; i < 5; ++i)
     for (Index e = 0; e < 2; ++e) {
-      EXPECT_EQ(a.after_step(sim, e, false).reward, b.after_step(sim, e, false).reward);
+      EXPECT_EQ(a.after_step(sim, e, tasks::EpisodeEnd::none).reward, b.after_step(sim, e, tasks::EpisodeEnd::none).reward);
       EXPECT_EQ(a.direction(e), b.direction(e));
       EXPECT_EQ(a.speed(e), b.speed(e));
     }

@@ -18,6 +18,7 @@
 #include "../blas_kernel.hpp"
 
 #include <cstring>
+#include <limits>
 
 using namespace maskadapt;
 using namespace maskadapt::train;
@@ -545,6 +546,35 @@ TEST(ResidualEval, GoalTaskSuccessRateCountsEndedTrials) {
                Error);
 }
 
+// Trials the episode's time limit cuts short are censored, not counted: 30-step episodes (1 s at
+// 30 Hz) and goals held 20 steps give each episode one trial that runs its course and one that the
+// limit cuts after 10 steps. With a radius covering the floor both would be successes; only the
+// first is counted, and the second appears in `censored` (one per ended episode).
+TEST(ResidualEval, GoalTaskTrialsCutByTheTimeLimitAreCensored) {
+  Data d;
+  const Skeleton& skel = d.skel;
+  adapt::ResidualConfig rc;
+  rc.hidden = {16};
+  rc.goal_dim = 4;
+  Rng init(2);
+  adapt::ResidualPolicy<float> pol(tiny_base(skel), observation_dim(skel), action_parts(skel), rc, init);
+  GoalEvalOptions opt;
+  opt.min_trials = 20;
+  opt.episode_seconds = 1.0;
+  const FallCriteria never = FallCriteria::for_skeleton(skel, {"root", "head", "l_arm", "r_arm", "l_leg", "r_leg"}, "");
+  TinyWalkerSim sim(4);
+  tasks::LocationConfig lc;
+  lc.radius = 1000.0;
+  lc.schedule = {20, 20};
+  const GoalEvalResult r = evaluate_goal_task<TinyWalkerSim>(sim, pol, tasks::LocationTask(lc, 4), PartMask::parse("arms"),
+                                                             upright(skel), never, opt);
+  EXPECT_GE(r.trials.trials, 20);
+  EXPECT_EQ(r.trials.rate(), 1.0);
+  EXPECT_GE(r.trials.censored, r.trials.trials - 4);  // one per env-episode, the last episodes' maybe not yet
+  EXPECT_LE(r.trials.censored, r.trials.trials);
+  EXPECT_EQ(r.steps % 30, 20) << "stops when the 20th counted trial (a goal's expiry at step 20 of an episode) ends";
+}
+
 // AdaptNet through the same trainer (the policy is a template parameter): on a location goal
 // with an imitation discriminator of the base motion, it trains (the adaptation moves, the frozen
 // base does not) and resumes bit-exactly.
@@ -806,6 +836,34 @@ TEST(ResidualConfig, KeepsTheLocationDistanceDivergenceAndPositionWeightAndRefus
     b.location_max_distance = 5;
     b.location_divergence = 0;
   }, "location_position_weight");
+}
+
+TEST(ResidualConfig, KeepsTheLocationArriveDistanceAndReachBonusAndRefusesThemElsewhere) {
+  ResidualTrainConfig c;
+  c.task = "location";
+  c.location_arrive_distance = 1.5;
+  c.location_reach_bonus = 10;
+  const auto back = residual_config_from_json(to_json(c));
+  EXPECT_EQ(back.location_arrive_distance, 1.5);
+  EXPECT_EQ(back.location_reach_bonus, 10.0);
+  nlohmann::json old = to_json(c);  // written before the fields existed: both off
+  old.erase("location_arrive_distance");
+  old.erase("location_reach_bonus");
+  const auto o = residual_config_from_json(old);
+  EXPECT_EQ(o.location_arrive_distance, 0.0);
+  EXPECT_EQ(o.location_reach_bonus, 0.0);
+  auto bad = [&](auto edit, const char* field) {
+    ResidualTrainConfig b = c;
+    edit(b);
+    expect_error_naming([&] { b.validate(); }, field, field);
+  };
+  bad([](ResidualTrainConfig& b) { b.location_arrive_distance = -1; }, "location_arrive_distance");
+  bad([](ResidualTrainConfig& b) { b.location_arrive_distance = std::nan(""); }, "location_arrive_distance");
+  bad([](ResidualTrainConfig& b) { b.location_reach_bonus = -1; }, "location_reach_bonus");
+  bad([](ResidualTrainConfig& b) { b.location_reach_bonus = std::numeric_limits<double>::infinity(); },
+      "location_reach_bonus");
+  bad([](ResidualTrainConfig& b) { b.task = "heading"; b.location_reach_bonus = 0; }, "location_arrive_distance");
+  bad([](ResidualTrainConfig& b) { b.task = "strike"; b.location_arrive_distance = 0; }, "location_reach_bonus");
 }
 
 TEST(ResidualConfig, KeepsTheBlendResetShareThroughJsonAndRejectsBadValues) {

@@ -15,7 +15,7 @@
 /// | `t.begin_iteration(it)`          | (any)                   | before iteration `it` collects (e.g. refill a goal buffer) |
 /// | `t.new_episode(sim, e)`          | (any)                   | env e has just been reset: draw its goal (may place scene objects) |
 /// | `ct.goal(csim, e, g)`            | (any)                   | writes the goal observation (goal_dim), `g` an `Eigen::Ref<VectorXf>` |
-/// | `t.after_step(csim, e, ended)`   | `GoalStep`              | the step just taken: its reward and whether the task ends the episode. `ended`: the imitation task already ended (and reset) the env, whose state must not be read; the task returns its previous reward and closes the trial |
+/// | `t.after_step(csim, e, end)`     | `GoalStep`              | the step just taken: its reward and whether the task ends the episode. `end` (an `EpisodeEnd`): `none`, or how the imitation task already ended (and reset) the env, whose state must not be read — the task then returns its previous reward and closes the trial (see "Trials") |
 /// | `ct.trials()`                    | `const TrialCounter&`   | trials ended and successes since the last `clear_trials()` |
 /// | `t.clear_trials()`               | (any)                   | |
 /// | `ct.save(ck, prefix)`            | (any)                   | everything needed to resume bit-exactly (goals, schedules, RNG streams) under `prefix` |
@@ -23,7 +23,13 @@
 ///
 /// Trials: a trial is one goal held by one env. It ends when the task resamples the goal, when
 /// the episode ends, or when the task ends the episode; it counts as a success when the task's
-/// success test held (each task's header says exactly when).
+/// success test held (each task's header says exactly when). A task whose goals are held for a
+/// drawn time (location, heading) does not count a trial that the episode's time limit cut
+/// short: it is *censored* (`TrialCounter::censored`), because its outcome is unknown — counting
+/// it as a failure would make the success rate depend on the episode length rather than on the
+/// policy (with 10-s episodes and goals held 5–10 s every second location trial had 0–5 s), and
+/// counting only the cut trials that had already succeeded would bias it upward. A fall ends the
+/// trial as a failure. (Strike's trial is the episode: its time limit is the trial's own end.)
 ///
 /// `AnyGoalTask<Sim>` type-erases a task so a run can pick one at run time (CLI `--task`).
 #include <maskadapt/core/checkpoint.hpp>
@@ -41,19 +47,28 @@
 
 namespace maskadapt::tasks {
 
+/// How an env's episode ended on the step a goal task is told about (`after_step`).
+enum class EpisodeEnd : std::uint8_t {
+  none,        ///< it goes on
+  terminated,  ///< ended early by the imitation task: a fall (no bootstrap)
+  time_limit,  ///< ended by the episode length limit (truncated, bootstrapped)
+};
+
 /// What a goal task says about one env's step.
 struct GoalStep {
   float reward = 0.0f;     ///< the task's reward row for this step
   bool terminate = false;  ///< the task ends the episode (the trainer resets the env)
 };
 
-/// Ended trials and successes.
+/// Ended trials and successes; `censored`: trials the episode's time limit cut short, counted in
+/// neither (see "Trials" above).
 struct TrialCounter {
-  long long trials = 0, successes = 0;
+  long long trials = 0, successes = 0, censored = 0;
   void add(bool success) {
     ++trials;
     successes += success ? 1 : 0;
   }
+  void censor() { ++censored; }
   double rate() const { return trials > 0 ? static_cast<double>(successes) / static_cast<double>(trials) : NAN; }
   /// Wilson score interval at z = 1.96 (95 %): {low, high}; {0, 1} without trials.
   std::pair<double, double> wilson95() const {
@@ -67,14 +82,14 @@ struct TrialCounter {
 
 template <class T, class Sim>
 concept GoalTask = Simulator<Sim> &&
-    requires(T& t, const T& ct, Sim& sim, const Sim& csim, Index e, bool ended, long long it, Eigen::Ref<VectorXf> g,
+    requires(T& t, const T& ct, Sim& sim, const Sim& csim, Index e, EpisodeEnd end, long long it, Eigen::Ref<VectorXf> g,
              Checkpoint& ck, const Checkpoint& cck, const std::string& prefix) {
       { ct.name() } -> std::convertible_to<std::string>;
       { ct.goal_dim() } -> std::convertible_to<Index>;
       t.begin_iteration(it);
       t.new_episode(sim, e);
       ct.goal(csim, e, g);
-      { t.after_step(csim, e, ended) } -> std::same_as<GoalStep>;
+      { t.after_step(csim, e, end) } -> std::same_as<GoalStep>;
       { ct.trials() } -> std::same_as<const TrialCounter&>;
       t.clear_trials();
       ct.save(ck, prefix);
@@ -104,7 +119,7 @@ class AnyGoalTask {
   void begin_iteration(long long it) { get().begin_iteration(it); }
   void new_episode(Sim& sim, Index e) { get().new_episode(sim, e); }
   void goal(const Sim& sim, Index e, Eigen::Ref<VectorXf> g) const { get().goal(sim, e, g); }
-  GoalStep after_step(const Sim& sim, Index e, bool ended) { return get().after_step(sim, e, ended); }
+  GoalStep after_step(const Sim& sim, Index e, EpisodeEnd end) { return get().after_step(sim, e, end); }
   const TrialCounter& trials() const { return get().trials(); }
   void clear_trials() { get().clear_trials(); }
   void save(Checkpoint& c, const std::string& prefix) const { get().save(c, prefix); }
@@ -125,7 +140,7 @@ class AnyGoalTask {
     virtual void begin_iteration(long long it) = 0;
     virtual void new_episode(Sim& sim, Index e) = 0;
     virtual void goal(const Sim& sim, Index e, Eigen::Ref<VectorXf> g) const = 0;
-    virtual GoalStep after_step(const Sim& sim, Index e, bool ended) = 0;
+    virtual GoalStep after_step(const Sim& sim, Index e, EpisodeEnd end) = 0;
     virtual const TrialCounter& trials() const = 0;
     virtual void clear_trials() = 0;
     virtual void save(Checkpoint& c, const std::string& prefix) const = 0;
@@ -140,7 +155,7 @@ class AnyGoalTask {
     void begin_iteration(long long it) override { task.begin_iteration(it); }
     void new_episode(Sim& sim, Index e) override { task.new_episode(sim, e); }
     void goal(const Sim& sim, Index e, Eigen::Ref<VectorXf> g) const override { task.goal(sim, e, g); }
-    GoalStep after_step(const Sim& sim, Index e, bool ended) override { return task.after_step(sim, e, ended); }
+    GoalStep after_step(const Sim& sim, Index e, EpisodeEnd end) override { return task.after_step(sim, e, end); }
     const TrialCounter& trials() const override { return task.trials(); }
     void clear_trials() override { task.clear_trials(); }
     void save(Checkpoint& c, const std::string& prefix) const override { task.save(c, prefix); }
@@ -172,7 +187,8 @@ GoalOutcome advance_goal(AnyGoalTask<Sim>& goal, ImitationLike& task, Index e) {
   GoalOutcome o;
   o.terminated = task.terminated()[u] != 0;
   o.truncated = !o.terminated && task.truncated()[u] != 0;
-  const GoalStep g = goal.after_step(task.sim(), e, o.terminated || o.truncated);
+  const GoalStep g = goal.after_step(task.sim(), e,
+                                     o.terminated ? EpisodeEnd::terminated : o.truncated ? EpisodeEnd::time_limit : EpisodeEnd::none);
   o.reward = g.reward;
   if (g.terminate && !o.terminated && !o.truncated) {
     task.restart_env(e);

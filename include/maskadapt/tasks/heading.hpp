@@ -9,7 +9,8 @@
 ///  - success: |s* − v̄_d| < 0.5 m/s at the end of the trial, v̄_d the mean of v_d over the trial's
 ///    last `success_window` steps (1 s: a gait's velocity swings within a stride); a trial shorter
 ///    than the window fails. The paper states the threshold, not the averaging; we average so the
-///    test does not depend on the gait phase at which the goal happens to change;
+///    test does not depend on the gait phase at which the goal happens to change. A trial the
+///    episode's time limit cuts short is not counted (censored; goal_task.hpp, "Trials");
 ///  - schedule: a new (d, s*) every `schedule` steps: d at a uniform angle within ±max_turn of the
 ///    root's facing, s* uniform in [min_speed, max_speed]; a trial is one (d, s*).
 #include <maskadapt/tasks/goal_task.hpp>
@@ -81,9 +82,13 @@ class HeadingTask {
     heading_goal(sim.body_states(static_cast<std::size_t>(e)).rot[0], dir_[idx(e)], speed_[idx(e)], g);
   }
   template <Simulator Sim>
-  GoalStep after_step(const Sim& sim, Index e, bool ended) {
+  GoalStep after_step(const Sim& sim, Index e, EpisodeEnd end) {
     const auto u = idx(e);
-    if (ended) {
+    if (end == EpisodeEnd::time_limit) {  // cut short: censored (goal_task.hpp, "Trials")
+      trials_.censor();
+      return {last_reward_[u], false};
+    }
+    if (end == EpisodeEnd::terminated) {  // a fall
       trials_.add(success(e));
       return {last_reward_[u], false};
     }

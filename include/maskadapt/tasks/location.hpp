@@ -20,8 +20,19 @@
 ///    loops back (measured: docs/results.md, "Stage 2 recipe"); the velocity and facing terms
 ///    stay near 1 on such a pass until the target is abeam, while the position term pays for the
 ///    metres closer it gets;
+///    With `arrive_distance` ρ > 0 (not the paper's; an "arrive" behaviour) the velocity term's
+///    target speed falls with the distance d to the target: v*(d) = v*·min(1, d/ρ), so that a
+///    walker that slows down near the target (and can turn onto it) is paid for it; the goal
+///    observation keeps showing v* (evaluation runs the paper's reward, ρ = 0);
+///  - reach bonus (training only, not the paper's): with `reach_bonus` B > 0, the step on which
+///    the root first comes within R of its target earns B more, the trial closes as a success and
+///    the next target is drawn at once (ASE and CML change goals several times an episode). A
+///    walker that passes its target at 0.6 m then earns nothing a walker passing at 1.6 m does
+///    not; one that hits it earns B. Without it the reward on a pass and on a hit differ by a few
+///    per cent (the velocity and facing terms are ≈ 1 on the approach either way);
 ///  - goal observation g ∈ R⁴: d in the root's heading frame (2), v* (1), distance (1, m);
-///  - success: the root comes within R of the target while the trial's goal is held;
+///  - success: the root comes within R of the target while the trial's goal is held; a trial the
+///    episode's time limit cuts short is not counted (censored; goal_task.hpp, "Trials");
 ///  - schedule: a new target every `schedule` steps (uniform), drawn at a uniform angle and a
 ///    distance in [min_distance, max_distance] from the root; a trial is one target;
 ///  - divergence termination (not the paper's; CML's location task ends its episodes so): with
@@ -46,6 +57,8 @@ struct LocationConfig {
   double min_distance = 1.0, max_distance = 5.0;  ///< target distance from the root when drawn (m)
   GoalSchedule schedule{150, 300};                ///< steps a target is held (5–10 s at 30 Hz)
   double divergence_distance = 0.0;  ///< D (m): end the episode when the target is D farther than when drawn; 0 = never (CML: 3)
+  double arrive_distance = 0.0;      ///< ρ (m): v*(d) = v*·min(1, d/ρ) in the velocity term; 0 = v* everywhere (the paper's)
+  double reach_bonus = 0.0;          ///< B: reward added on reaching a target, which is then redrawn at once; 0 = none (the paper's)
   std::uint64_t seed = 1;
   /// Global index of env 0: env e draws from the stream of env first_env + e (a distributed run's
   /// rank offset, so each env has its one-process stream; train/distributed.hpp).
@@ -64,7 +77,15 @@ struct LocationConfig {
     schedule.validate("location.schedule");
     require(std::isfinite(divergence_distance) && divergence_distance >= 0, "must be finite and >= 0 (0 = never)",
             {{}, {}, "location.divergence_distance"});
+    require(std::isfinite(arrive_distance) && arrive_distance >= 0 && arrive_distance <= 100, "must be in [0, 100] m (0 = off)",
+            {{}, {}, "location.arrive_distance"});
+    require(std::isfinite(reach_bonus) && reach_bonus >= 0 && reach_bonus <= 1000, "must be in [0, 1000] (0 = off)",
+            {{}, {}, "location.reach_bonus"});
   }
+
+  /// The velocity term's target speed at horizontal distance d from the target (m/s; see
+  /// `arrive_distance`).
+  double target_speed(double d) const { return arrive_distance > 0 ? speed * std::min(1.0, d / arrive_distance) : speed; }
 };
 
 /// The reward of one step (see the file comment). Positions and velocities in world metres.
@@ -74,14 +95,15 @@ inline double location_reward(const Vec3& root_pos, const Vec3& root_vel, const 
   return speed_toward_reward(to.direction, root_vel, c.speed, c.velocity_scale);
 }
 
-/// The reward with the facing and position shaping terms (see the file comment); `root_rot` gives
-/// the facing. facing_weight = position_weight = 0 is exactly the paper's reward above.
+/// The reward with the facing, position and arrive shaping (see the file comment); `root_rot` gives
+/// the facing. facing_weight = position_weight = arrive_distance = 0 is exactly the paper's reward
+/// above. (The reach bonus is the task's, paid in LocationTask::after_step.)
 inline double location_reward(const Vec3& root_pos, const Quat& root_rot, const Vec3& root_vel, const Vec3& target,
                               const LocationConfig& c) {
   const GroundBearing to = ground_bearing(root_pos, target);
   if (to.distance <= c.radius) return 1.0;
   return (1 - c.facing_weight - c.position_weight) *
-             speed_toward_reward(to.direction, root_vel, c.speed, c.velocity_scale) +
+             speed_toward_reward(to.direction, root_vel, c.target_speed(to.distance), c.velocity_scale) +
          c.facing_weight * facing_toward_reward(root_rot, to.direction) +
          c.position_weight * std::exp(-c.position_scale * to.distance * to.distance);
 }
@@ -122,9 +144,13 @@ class LocationTask {
     location_goal(b.pos.col(0), b.rot[0], target_[idx(e)], c_, g);
   }
   template <Simulator Sim>
-  GoalStep after_step(const Sim& sim, Index e, bool ended) {
+  GoalStep after_step(const Sim& sim, Index e, EpisodeEnd end) {
     const auto u = idx(e);
-    if (ended) {
+    if (end == EpisodeEnd::time_limit) {  // cut short: censored (goal_task.hpp, "Trials")
+      trials_.censor();
+      return {last_reward_[u], false};
+    }
+    if (end == EpisodeEnd::terminated) {  // a fall: failed unless already reached
       trials_.add(reached_[u] != 0);
       return {last_reward_[u], false};
     }
@@ -133,6 +159,11 @@ class LocationTask {
     last_reward_[u] = static_cast<float>(location_reward(p, b.rot[0], b.lin_vel.col(0), target_[u], c_));
     Vec3 to = target_[u] - p;
     to.z() = 0;
+    if (to.norm() <= c_.radius && c_.reach_bonus > 0) {  // reached: paid, a success, the next target
+      trials_.add(true);
+      draw_target(p, e);
+      return {last_reward_[u] + static_cast<float>(c_.reach_bonus), false};
+    }
     if (to.norm() <= c_.radius) reached_[u] = 1;
     if (c_.divergence_distance > 0 && to.norm() > start_distance_[u] + c_.divergence_distance) {
       trials_.add(reached_[u] != 0);  // the episode ends here; new_episode draws the next target

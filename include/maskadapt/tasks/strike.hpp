@@ -143,9 +143,9 @@ class StrikeTask {
     strike_goal(b.pos.col(0), b.rot[0], sim.object_state(idx(e), c_.object), g);
   }
   template <SceneSimulator Sim>
-  GoalStep after_step(const Sim& sim, Index e, bool ended) {
+  GoalStep after_step(const Sim& sim, Index e, EpisodeEnd end) {
     const auto u = idx(e);
-    if (ended) {
+    if (end != EpisodeEnd::none) {  // the trial is the episode: its time limit is the trial's end
       trials_.add(success(e));
       return {last_reward_[u], false};
     }

@@ -76,9 +76,9 @@ class TrackingTask {
   /// Reward of the target frame this step reached. An env the imitation task already reset has no
   /// post-step state left: it keeps its previous reward.
   template <Simulator Sim>
-  GoalStep after_step(const Sim& sim, Index e, bool ended) {
+  GoalStep after_step(const Sim& sim, Index e, EpisodeEnd end) {
     const auto u = idx(e);
-    if (ended) return {last_reward_[u], false};
+    if (end != EpisodeEnd::none) return {last_reward_[u], false};
     const auto& traj = goals_.trajectories[goal_index_[u]];
     const Index f = std::min<Index>(static_cast<Index>(goal_frame_[u] + 1), traj.num_frames() - 1);
     last_reward_[u] = static_cast<float>(tracking::tracking_reward(skel_, bodies_, traj.q.col(f), sim.body_states(u)));

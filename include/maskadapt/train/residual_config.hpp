@@ -67,6 +67,12 @@ struct ResidualTrainConfig {
   /// location, training only: end the episode once the target is this much farther than when
   /// drawn (m; tasks::LocationConfig::divergence_distance; 0 = never, the paper's)
   double location_divergence = 0.0;
+  /// location, training only: the velocity term's target speed falls to 0 at the target,
+  /// v*·min(1, d/ρ) (m; tasks::LocationConfig::arrive_distance; 0 = v* everywhere, the paper's)
+  double location_arrive_distance = 0.0;
+  /// location, training only: reward on reaching a target, which is then redrawn at once
+  /// (tasks::LocationConfig::reach_bonus; 0 = none, the paper's)
+  double location_reach_bonus = 0.0;
   /// strike: weight w of the approach shaping term (tasks::StrikeConfig::approach_weight; 0 = the
   /// paper's reward)
   double strike_approach_weight = 0.0;
@@ -123,6 +129,14 @@ struct ResidualTrainConfig {
             "target distances are the location task's, not " + task + "'s", {{}, {}, "location_distance"});
     require(std::isfinite(location_divergence) && location_divergence >= 0, "must be finite and >= 0 m (0 = never)",
             {{}, {}, "location_divergence"});
+    require(std::isfinite(location_arrive_distance) && location_arrive_distance >= 0 && location_arrive_distance <= 100,
+            "must be in [0, 100] m (0 = off)", {{}, {}, "location_arrive_distance"});
+    require(location_arrive_distance == 0 || task == "location",
+            "the arrive shaping is the location task's, not " + task + "'s", {{}, {}, "location_arrive_distance"});
+    require(std::isfinite(location_reach_bonus) && location_reach_bonus >= 0 && location_reach_bonus <= 1000,
+            "must be in [0, 1000] (0 = off)", {{}, {}, "location_reach_bonus"});
+    require(location_reach_bonus == 0 || task == "location",
+            "the reach bonus is the location task's, not " + task + "'s", {{}, {}, "location_reach_bonus"});
     require(location_divergence == 0 || task == "location",
             "the divergence termination is the location task's, not " + task + "'s", {{}, {}, "location_divergence"});
     require(std::isfinite(strike_approach_weight) && strike_approach_weight >= 0 && strike_approach_weight <= 1,
@@ -153,11 +167,10 @@ inline std::array<double, kNumParts> part_std_from_json(const nlohmann::json& j,
   std::array<double, kNumParts> s{};
   if (!j.is_object()) throw Error("expected an object {part: σ}", {file, std::nullopt, "residual_part_std"});
   for (const auto& [name, v] : j.items()) {
-    std::size_t p = 0;
-    while (p < kPartNames.size() && kPartNames[p] != name) ++p;
-    if (p == kPartNames.size()) throw Error("unknown body part '" + name + "'", {file, std::nullopt, "residual_part_std"});
+    const auto part = part_from_name(name);
+    if (!part) throw Error("unknown body part '" + name + "'", {file, std::nullopt, "residual_part_std"});
     if (!v.is_number()) throw Error("σ must be a number", {file, std::nullopt, "residual_part_std." + name});
-    s[p] = v.get<double>();
+    s[static_cast<std::size_t>(*part)] = v.get<double>();
   }
   return s;
 }
@@ -212,6 +225,8 @@ inline nlohmann::json to_json(const ResidualTrainConfig& c) {
           {"location_position_weight", c.location_position_weight},
           {"location_distance", {c.location_min_distance, c.location_max_distance}},
           {"location_divergence", c.location_divergence},
+          {"location_arrive_distance", c.location_arrive_distance},
+          {"location_reach_bonus", c.location_reach_bonus},
           {"strike_approach_weight", c.strike_approach_weight},
           {"designated", c.designated},
           {"texts", c.texts},
@@ -251,6 +266,8 @@ inline ResidualTrainConfig residual_config_from_json(const nlohmann::json& j, co
     c.location_min_distance = dist[0];
     c.location_max_distance = dist[1];
     c.location_divergence = j.value("location_divergence", 0.0);
+    c.location_arrive_distance = j.value("location_arrive_distance", 0.0);  // (absent before it existed: off)
+    c.location_reach_bonus = j.value("location_reach_bonus", 0.0);          // (absent before it existed: off)
     c.strike_approach_weight = j.value("strike_approach_weight", 0.0);  // (absent before it existed: the paper's reward)
     c.designated = j.at("designated");
     c.texts = j.value("texts", std::vector<std::string>());  // (absent before it was recorded: the pool)
