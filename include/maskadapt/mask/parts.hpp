@@ -12,6 +12,7 @@
 
 #include <array>
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -25,6 +26,13 @@ inline constexpr std::array<std::string_view, kNumParts> kPartNames = {"trunk", 
                                                                        "left_leg", "right_leg"};
 
 inline std::string_view part_name(BodyPart p) { return kPartNames[static_cast<int>(p)]; }
+
+/// The part named `name` (one of kPartNames, not a group), or nothing.
+inline std::optional<BodyPart> part_from_name(std::string_view name) {
+  for (int p = 0; p < kNumParts; ++p)
+    if (name == kPartNames[static_cast<std::size_t>(p)]) return static_cast<BodyPart>(p);
+  return std::nullopt;
+}
 
 struct PartMask {
   std::uint8_t bits = 0;  ///< bit p ⇔ part p masked
@@ -88,8 +96,7 @@ struct PartMask {
 
  private:
   static PartMask named(std::string_view name, const std::string& field) {
-    for (int p = 0; p < kNumParts; ++p)
-      if (name == kPartNames[p]) return of(static_cast<BodyPart>(p));
+    if (const auto p = part_from_name(name)) return of(*p);
     if (name == "none") return none();
     if (name == "all") return all();
     if (name == "arms") return of(BodyPart::LeftArm) | of(BodyPart::RightArm);

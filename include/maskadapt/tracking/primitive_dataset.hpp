@@ -17,7 +17,9 @@
 #include <maskadapt/tracking/frame_features.hpp>
 #include <maskadapt/tracking/generator.hpp>
 
+#include <concepts>
 #include <string>
+#include <type_traits>
 #include <vector>
 
 namespace maskadapt::tracking {
@@ -57,21 +59,19 @@ struct PrimitiveDataset {
   Index size() const { return history.cols(); }
 };
 
-/// (N × H × D) view of `d.history` (no copy; writable): window n, history frame j, feature i.
-inline auto history_tensor(PrimitiveDataset& d) {
+/// (N × H × D) view of `d.history` (no copy; writable unless `d` is const): window n, history
+/// frame j, feature i.
+template <class Dataset>
+  requires std::same_as<std::remove_const_t<Dataset>, PrimitiveDataset>
+inline auto history_tensor(Dataset& d) {
   return tensor_view(d.history, std::array{std::size_t(d.size()), std::size_t(d.history_frames), std::size_t(d.frame_dim)},
                      "history");
 }
-inline auto history_tensor(const PrimitiveDataset& d) {
-  return tensor_view(d.history, std::array{std::size_t(d.size()), std::size_t(d.history_frames), std::size_t(d.frame_dim)},
-                     "history");
-}
-/// (N × F × D) view of `d.future` (no copy; writable): window n, future frame j, feature i.
-inline auto future_tensor(PrimitiveDataset& d) {
-  return tensor_view(d.future, std::array{std::size_t(d.size()), std::size_t(d.future_frames), std::size_t(d.frame_dim)},
-                     "future");
-}
-inline auto future_tensor(const PrimitiveDataset& d) {
+/// (N × F × D) view of `d.future` (no copy; writable unless `d` is const): window n, future frame
+/// j, feature i.
+template <class Dataset>
+  requires std::same_as<std::remove_const_t<Dataset>, PrimitiveDataset>
+inline auto future_tensor(Dataset& d) {
   return tensor_view(d.future, std::array{std::size_t(d.size()), std::size_t(d.future_frames), std::size_t(d.frame_dim)},
                      "future");
 }
