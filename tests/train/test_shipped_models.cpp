@@ -205,6 +205,32 @@ TEST(ShippedModels, Table3PoliciesAreTheCellsTheyClaimToBeOnTheShippedBase) {
     }
 }
 
+// Issue 39's recipe run (models/recipe/location_face05w19_s2.bin): ours on the location task with
+// the facing term 0.5 and objective weights 0.1 / 0.9, seed 2, taken at 6,000 iterations, on the
+// shipped walking base; its mean actions are finite on the reference humanoid.
+TEST(ShippedModels, RecipeLocationPolicyIsTheRunItClaimsToBe) {
+  const Skeleton& skel = humanoid_skeleton();
+  const Checkpoint walker = load_checkpoint(maskadapt::build_paths::source_dir() + "/models/mask_mi_walk_bandai.bin");
+  const std::string path = maskadapt::build_paths::source_dir() + "/models/recipe/location_face05w19_s2.bin";
+  const Checkpoint c = load_checkpoint(path);
+  ASSERT_TRUE(is_residual_export(c)) << path;
+  const ResidualTrainConfig cfg = check_residual_export(c, path);
+  EXPECT_EQ(cfg.task, "location");
+  EXPECT_EQ(cfg.method, "ours");
+  EXPECT_EQ(cfg.goal_parts, "lower_body");
+  EXPECT_EQ(cfg.location_facing_weight, 0.5);
+  EXPECT_EQ(cfg.objective_weights, (std::vector<double>{0.1, 0.9}));
+  EXPECT_EQ(cfg.rl.run.seed, 2u);
+  EXPECT_EQ(c.get_int("trainer/iteration"), 6000);
+  EXPECT_TRUE(same_base(c, walker)) << path << ": the frozen base is not models/mask_mi_walk_bandai.bin's actor";
+  const auto pol = stage2_policy_from_checkpoint<adapt::ResidualPolicy<float>>(c, skel);
+  MatrixXf x = MatrixXf::Zero(pol.input_dim(), 1), mu;
+  Stage2Types<adapt::ResidualPolicy<float>>::Workspace ws;
+  pol.mean(x, std::vector<PartMask>{PartMask::parse(cfg.masks.front())}, mu, ws);
+  EXPECT_EQ(mu.rows(), 63);
+  EXPECT_TRUE(mu.allFinite());
+}
+
 // The Table 4 policies (issue 15, models/table4/): partial tracking with the arms designated and the
 // shipped text generator — ours and the CML-style baseline on the shipped walking base (seeds 1 and
 // 2), from scratch without a base (seed 1) — each the stage-2 export of the cell it is named after.
