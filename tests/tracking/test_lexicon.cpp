@@ -83,7 +83,10 @@ fs::path write_dictionary(const std::string& name, const std::vector<TinySynset>
       index += ' ';
       index += pos;
       index += " " + std::to_string(keys.size()) + " 0 " + std::to_string(keys.size()) + " 0";
-      for (const auto& k : keys) index += " " + offset8(offset.at(k));
+      for (const auto& k : keys) {  // (two appends: GCC 12's -Wrestrict misfires on " " + string&&)
+        index += ' ';
+        index += offset8(offset.at(k));
+      }
       index += "  \n";
     }
     std::ofstream(dir / ("index." + std::string(suffix(pos))), std::ios::binary) << index;
