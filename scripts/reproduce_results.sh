@@ -371,6 +371,49 @@ recipe_lane2() {
     grid OUT="$RUNS/ab" VARIANT=appr04w19 TASK=strike SEED=$seed $ab --strike-approach-weight 0.4 --objective-weights 0.1 0.9
   done
 }
+# the second round (on top of the best first-round variant), 600 iterations; the position term to 1,500
+recipe_round2() {
+  local ab=scripts/stage2_ab.sh best=(--location-facing-weight 0.5 --objective-weights 0.1 0.9) seed it
+  grid OUT="$RUNS/ab" VARIANT=face05w19div3 TASK=location $ab "${best[@]}" --location-divergence 3
+  grid OUT="$RUNS/ab" VARIANT=face05w19d13 TASK=location $ab "${best[@]}" --location-distance 1 3
+  grid OUT="$RUNS/ab" VARIANT=face05w19arms15 TASK=location $ab "${best[@]}" --part-std arms=0.15
+  for seed in 1 2; do for it in 600 1500; do
+    grid OUT="$RUNS/ab" VARIANT=face05pos25w19 TASK=location SEED=$seed ITERATIONS=$it $ab "${best[@]}" --location-position-weight 0.25
+  done; done
+}
+# the third round (the reach bonus) at 600 and 1,500 iterations, seeds 1 and 2
+recipe_round3() {
+  local seed it
+  for seed in 1 2; do for it in 600 1500; do
+    grid OUT="$RUNS/ab" VARIANT=face05w19_reach10 TASK=location SEED=$seed ITERATIONS=$it THREADS=1 scripts/stage2_ab.sh \
+      --location-facing-weight 0.5 --objective-weights 0.1 0.9 --location-reach-bonus 10
+  done; done
+}
+# the best location variant trained long (seed 2, 2 threads, chunks of 1,500, each evaluated), its
+# 6,000-iteration export (models/recipe/), and heading and strike with the same goal weights
+recipe_long() {
+  local it
+  for it in 1500 3000 4500 6000; do
+    grid OUT="$RUNS/ab" VARIANT=face05w19 TASK=location SEED=2 THREADS=2 ITERATIONS=$it scripts/stage2_ab.sh \
+      --location-facing-weight 0.5 --objective-weights 0.1 0.9
+  done
+  run "$cli" export "$RUNS/ab/location_ours_face05w19_s2/checkpoint.bin" --out "$RUNS/ab/location_face05w19_s2.bin"
+  for it in 7500 9000; do
+    grid OUT="$RUNS/ab" VARIANT=face05w19 TASK=location SEED=2 THREADS=2 ITERATIONS=$it scripts/stage2_ab.sh \
+      --location-facing-weight 0.5 --objective-weights 0.1 0.9
+  done
+  bgf recipe_chunks heading w19 --objective-weights 0.1 0.9
+  bgf recipe_chunks strike appr04w19 --strike-approach-weight 0.4 --objective-weights 0.1 0.9
+  join
+}
+# recipe_chunks TASK VARIANT FLAGS… — seed 1, one thread, chunks of 1,500 iterations to 9,000
+recipe_chunks() {
+  local task=$1 variant=$2 it
+  shift 2
+  for it in 1500 3000 4500 6000 7500 9000; do
+    grid OUT="$RUNS/ab" VARIANT=$variant TASK=$task SEED=1 THREADS=1 ITERATIONS=$it scripts/stage2_ab.sh "$@"
+  done
+}
 recipe() {
   bgf recipe_lane1
   bgf recipe_lane2
@@ -379,6 +422,10 @@ recipe() {
     bgf grid OUT="$RUNS/ab" VARIANT=face05w19 TASK=location SEED=$seed ITERATIONS=1500 scripts/stage2_ab.sh
   done
   join
+  bgf recipe_round2
+  bgf recipe_round3
+  join
+  recipe_long
 }
 
 # Every shipped model, evaluated from its file with the commands of docs/results.md ("The shipped
@@ -402,14 +449,12 @@ shipped() {
     pool -o "$o/${n}_0.1.txt" "$cli" eval-residual "$f" --envs 10 --frames 1000 "${extra[@]}" --out "$o/${n}_0.1.json"
     pool -o "$o/${n}_0.3.txt" "$cli" eval-residual "$f" --envs 10 --frames 1000 --threshold 0.3 "${extra[@]}" --out "$o/${n}_0.3.json"
   done
-  # Table 3: 16 envs until 100 trials ended; location_ours again as issue 39 re-evaluated it (200 trials, seed 1001)
-  for f in models/table3/*.bin; do
+  # Table 3 and issue 39's recipe export: 16 envs until 200 trials ended, evaluation seed 1001
+  for f in models/table3/*.bin models/recipe/*.bin; do
     n=$(basename "$f" .bin)
-    task=${n%_*}
-    pool -o "$o/$n.txt" "$cli" eval-residual "$f" --task "$task" --envs 16 --trials 100 --out "$o/$n.json"
+    task=${n%%_*}
+    pool -o "$o/$n.txt" "$cli" eval-residual "$f" --task "$task" --envs 16 --trials 200 --seed 1001 --out "$o/$n.json"
   done
-  pool -o "$o/location_ours_seed1001.txt" "$cli" eval-residual models/table3/location_ours.bin --task location --envs 16 --trials 200 \
-    --seed 1001 --out "$o/location_ours_seed1001.json"
   # Table 4: 10 prompts × 5 s × 3 repeats
   for f in models/table4/*.bin; do
     n=$(basename "$f" .bin)

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Table 3 (issue 16): the 3 tasks × 3 methods grid on a frozen walking base, one run at a time,
-# each at the same iteration budget, then eval-residual over >= 100 trials.
+# each at the same iteration budget, then eval-residual over >= 200 trials on evaluation seed 1001.
 #
 #   scripts/table3_grid.sh                       # every cell, in order; cells already evaluated are skipped
 #   CELLS="heading_ours heading_cml" scripts/table3_grid.sh
@@ -21,7 +21,8 @@ ITERATIONS=${ITERATIONS:-1500}
 THREADS=${THREADS:-2}
 SEED=${SEED:-1}
 OUT=${OUT:-runs/t3}
-TRIALS=${TRIALS:-100}
+TRIALS=${TRIALS:-200}
+EVAL_SEED=${EVAL_SEED:-1001}   # no training run uses it
 EVAL_ENVS=${EVAL_ENVS:-16}
 DATA=${MASKADAPT_DATA_DIR:-../shared/data}/motions
 CELLS=${CELLS:-"location_ours location_cml location_adaptnet heading_ours heading_cml heading_adaptnet strike_ours strike_cml strike_adaptnet"}
@@ -37,5 +38,5 @@ for cell in $CELLS; do
   train_or_resume "$dir" "$ITERATIONS" --task "$task" --method "$method" --base "$BASE" \
     $(goal_cell_args "$task" "$DATA") \
     --threads "$THREADS" --seed "$SEED"
-  cmd "$BIN" eval-residual "$dir/checkpoint.bin" --task "$task" --envs "$EVAL_ENVS" --trials "$TRIALS" --out "$result"
+  cmd "$BIN" eval-residual "$dir/checkpoint.bin" --task "$task" --envs "$EVAL_ENVS" --trials "$TRIALS" --seed "$EVAL_SEED" --out "$result"
 done
