@@ -12,7 +12,7 @@
 /// - `land_prompt(g, prompt, labels)`: the training text nearest to the prompt by the generator's
 ///   own text embedding (cosine of the learned projection of the — mapped — hashed features).
 /// - `unseen_word_paraphrases()`: the paraphrases docs/generator.md reports, each with the label
-///   meant.
+///   meant (the development list); `heldout_paraphrases()`: a second list, for judging only.
 #include <maskadapt/core/error.hpp>
 #include <maskadapt/core/rng.hpp>
 #include <maskadapt/humanoid/retarget.hpp>
@@ -143,6 +143,35 @@ inline const std::vector<Paraphrase>& unseen_word_paraphrases() {
       {"jog", "run"},                             {"sprint", "run"},
       {"dash", "run"},                            {"leap", "jump"},
       {"hop", "jump"},                            {"punt the ball", "kick"},
+  };
+  return p;
+}
+
+/// A second, held-out list (issue 42): written down, each with the label meant, before any change
+/// to the mapping or the landing rule was made and before its landings were measured; used only to
+/// judge a change, never to tune one (tuning uses `unseen_word_paraphrases()`). Its content words
+/// are outside the training vocabulary and outside the first list's new words; the labels are
+/// covered in about the first list's proportions.
+inline const std::vector<Paraphrase>& heldout_paraphrases() {
+  static const std::vector<Paraphrase> p = {
+      {"put both arms in the air", "arms high"},            {"hold your arms aloft", "arms high"},
+      {"raise your hands skyward", "arms high"},            {"lift your hands above your head", "arms high"},
+      {"extend your arms toward the ceiling", "arms high"}, {"salute with the right hand", "wave right hand"},
+      {"beckon with your right hand", "wave right hand"},   {"waggle the left hand", "wave left hand"},
+      {"flutter both hands", "wave both hands"},            {"pummel", "punch"},
+      {"thump someone", "punch"},                           {"throw a left hook", "punch"},
+      {"fistfight", "punch"},                               {"mop the floor", "wipe"},
+      {"dust the shelf", "wipe"},                           {"do the backstroke", "swim"},
+      {"go for a dip", "swim"},                             {"side straddle hops", "jumping jack arms"},
+      {"uplift an arm", "lift arm"},                        {"wield a blade", "swordplay"},
+      {"cross swords", "swordplay"},                        {"bathe", "wash self"},
+      {"lather yourself", "wash self"},                     {"gesture emphatically", "expressive arms"},
+      {"windmill your arms", "rotate arms"},                {"swivel the arms", "rotate arms"},
+      {"roll your arms", "rotate arms"},                    {"trudge", "walk"},
+      {"wander", "walk"},                                   {"pace", "walk"},
+      {"tiptoe", "walk"},                                   {"race", "run"},
+      {"scamper", "run"},                                   {"bounce", "jump"},
+      {"vault", "jump"},                                    {"boot the football", "kick"},
   };
   return p;
 }
