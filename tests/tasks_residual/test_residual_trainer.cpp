@@ -502,21 +502,32 @@ TEST(ResidualTrainer, NormalisedBaseResumesBitExactlyWithTheCheckpointsActionSpa
   }
 }
 
+// A residual with the location task's 4 goal rows on the tiny base, and fall criteria that never
+// trigger (every body may touch the ground, no height limit): the goal-evaluation tests below.
+namespace {
+adapt::ResidualPolicy<float> tiny_location_residual(const Skeleton& skel) {
+  adapt::ResidualConfig rc;
+  rc.hidden = {16};
+  rc.goal_dim = 4;
+  Rng init(2);
+  return adapt::ResidualPolicy<float>(tiny_base(skel), observation_dim(skel), action_parts(skel), rc, init);
+}
+FallCriteria never_falls(const Skeleton& skel) {
+  return FallCriteria::for_skeleton(skel, {"root", "head", "l_arm", "r_arm", "l_leg", "r_leg"}, "");
+}
+}  // namespace
+
 // Goal-task evaluation: a goal radius that covers the whole floor makes every trial a success, a
 // 1 mm radius around targets metres away makes every trial a failure; at least min_trials end,
 // the Wilson interval brackets the rate, and a step budget too small to end them is refused.
 TEST(ResidualEval, GoalTaskSuccessRateCountsEndedTrials) {
   Data d;
   const Skeleton& skel = d.skel;
-  adapt::ResidualConfig rc;
-  rc.hidden = {16};
-  rc.goal_dim = 4;
-  Rng init(2);
-  adapt::ResidualPolicy<float> pol(tiny_base(skel), observation_dim(skel), action_parts(skel), rc, init);
+  const adapt::ResidualPolicy<float> pol = tiny_location_residual(skel);
   GoalEvalOptions opt;
   opt.min_trials = 20;
   opt.episode_seconds = 1000.0;  // no truncation, and (below) no falls: every trial ends by its goal's expiry
-  const FallCriteria never = FallCriteria::for_skeleton(skel, {"root", "head", "l_arm", "r_arm", "l_leg", "r_leg"}, "");
+  const FallCriteria never = never_falls(skel);
   for (double radius : {1000.0, 0.001}) {
     TinyWalkerSim sim(4);
     tasks::LocationConfig lc;
@@ -553,15 +564,11 @@ TEST(ResidualEval, GoalTaskSuccessRateCountsEndedTrials) {
 TEST(ResidualEval, GoalTaskTrialsCutByTheTimeLimitAreCensored) {
   Data d;
   const Skeleton& skel = d.skel;
-  adapt::ResidualConfig rc;
-  rc.hidden = {16};
-  rc.goal_dim = 4;
-  Rng init(2);
-  adapt::ResidualPolicy<float> pol(tiny_base(skel), observation_dim(skel), action_parts(skel), rc, init);
+  const adapt::ResidualPolicy<float> pol = tiny_location_residual(skel);
   GoalEvalOptions opt;
   opt.min_trials = 20;
   opt.episode_seconds = 1.0;
-  const FallCriteria never = FallCriteria::for_skeleton(skel, {"root", "head", "l_arm", "r_arm", "l_leg", "r_leg"}, "");
+  const FallCriteria never = never_falls(skel);
   TinyWalkerSim sim(4);
   tasks::LocationConfig lc;
   lc.radius = 1000.0;
