@@ -10,6 +10,7 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
@@ -370,5 +371,116 @@ TEST_F(RealWordNet, MapsParaphrasesOntoTheCatalogVocabulary) {
   EXPECT_EQ(m.map("ran").text, "run");
   EXPECT_EQ(m.map("twirl the arms").text, "rotate the arms");
   EXPECT_EQ(m.map("duel with a sabre").text, "fight with sword");
+  EXPECT_EQ(m.map("strike").text, "punch");  // not the swim's "strokes" (a synonym of its rare sense 4)
   EXPECT_NE(error_of([&] { (void)m.map("xyzzy qwerty"); }).find("'xyzzy', 'qwerty'"), std::string::npos);
+  // Landing by word overlap over the catalog's label sets: "raise" (one behaviour) outweighs "hand" (three).
+  LabelSets sets;
+  for (const auto& c : arm_catalog()) sets.sets.push_back(c.texts);
+  sets.sets.insert(sets.sets.end(), {{"walk", "walk forward"}, {"run"}, {"jump"}});
+  const PromptVocabularyMapper by_sets(sets, wn_);
+  const LexicalLanding l = by_sets.lexical_landing(by_sets.map("raise your hands").text);
+  ASSERT_EQ(l.texts.size(), 1u);
+  EXPECT_EQ(by_sets.training_texts()[l.texts[0]], "raise arms");
+}
+
+// ---- Sense frequencies and the lexical landing (issue 42, the second sitting) -------------------
+
+namespace {
+
+/// "strike": sense 1 {strike} with a hyponym {punch}; sense 2 {strike, stroke} (a synonym of the
+/// vocabulary's "strokes" by base form). Without tag counts the synonym of sense 2 wins (penalty 0.25
+/// against the hyponym's 2); with sense 1 tagged 20 times and sense 2 never, it costs 2.45 and loses.
+fs::path strike_dictionary(const std::string& name, bool with_counts) {
+  const fs::path dir = write_dictionary(name, {{"strike1", 'v', {"strike"}, {{"~", "punch"}}},
+                                               {"strike2", 'v', {"strike", "stroke"}, {}},
+                                               {"punch", 'v', {"punch"}, {}},
+                                               {"stroke", 'n', {"stroke"}, {}}});
+  if (with_counts) std::ofstream(dir / "cntlist.rev", std::ios::binary) << "strike%2:35:00:: 1 20\nstroke%1:04:00:: 1 4\n";
+  return dir;
+}
+
+}  // namespace
+
+TEST(WordNetReader, TagCountsAndSensePenalty) {
+  const WordNet wn = WordNet::load(strike_dictionary("counts", true));
+  EXPECT_TRUE(wn.has_tag_counts());
+  EXPECT_EQ(wn.tag_count("strike", PartOfSpeech::verb, 0), 20u);
+  EXPECT_EQ(wn.tag_count("strike", PartOfSpeech::verb, 1), 0u);
+  EXPECT_EQ(wn.tag_count("stroke", PartOfSpeech::noun, 0), 4u);
+  EXPECT_EQ(wn.tag_count("stroke", PartOfSpeech::verb, 0), 0u);
+  EXPECT_DOUBLE_EQ(wn.sense_penalty("strike", PartOfSpeech::verb, 0), 0.0);
+  EXPECT_DOUBLE_EQ(wn.sense_penalty("strike", PartOfSpeech::verb, 1), 0.5 * std::log2(21.0) + 0.25);
+  const WordNet plain = WordNet::load(strike_dictionary("no_counts", false));
+  EXPECT_FALSE(plain.has_tag_counts());
+  EXPECT_DOUBLE_EQ(plain.sense_penalty("strike", PartOfSpeech::verb, 1), 0.25);  // sense order alone
+  // A malformed cntlist.rev line is named by file and line.
+  const fs::path dir = strike_dictionary("bad_counts", true);
+  std::ofstream(dir / "cntlist.rev", std::ios::binary) << "strike%2:35:00:: 1 20\nstrike%9:35:00:: 2 3\n";
+  const std::string msg = error_of([&] { (void)WordNet::load(dir); });
+  EXPECT_NE(msg.find((dir / "cntlist.rev").string() + ":2:"), std::string::npos) << msg;
+  std::ofstream(dir / "cntlist.rev", std::ios::binary) << "strike%2:35:00:: 1\n";
+  EXPECT_NE(error_of([&] { (void)WordNet::load(dir); }).find("cntlist.rev:1:"), std::string::npos);
+}
+
+TEST(PromptMapper, RareSensesArePenalised) {
+  const std::vector<std::string> texts = {"punch", "swimming strokes"};
+  const PromptVocabularyMapper without(texts, std::make_shared<const WordNet>(WordNet::load(strike_dictionary("m0", false))));
+  EXPECT_EQ(without.map("strike").text, "strokes");
+  const PromptVocabularyMapper with(texts, std::make_shared<const WordNet>(WordNet::load(strike_dictionary("m1", true))));
+  EXPECT_EQ(with.map("strike").text, "punch");
+  EXPECT_NE(with.map("strike").describe().find("hyponym 'punch'"), std::string::npos) << with.map("strike").describe();
+}
+
+TEST(PromptMapper, LexicalLandingIsIdfWeightedCosine) {
+  // No WordNet: landing forms are the words. 4 sets; idf = ln(1 + 4/df).
+  const PromptVocabularyMapper m(LabelSets{{{"walk"}, {"raise arms", "raise both arms"}, {"wave right hand"}, {"wave both hands"}}},
+                                 nullptr);
+  const double l5 = std::log(5.0), l3 = std::log(3.0);  // df 1 and df 2 ("both", "wave")
+  const LexicalLanding r = m.lexical_landing("raise the hands");  // "the" left out
+  const double to_raise_arms = 0.5, to_raise_both_arms = l5 / (std::sqrt(2.0) * std::sqrt(2 * l5 * l5 + l3 * l3)),
+               to_wave_both_hands = l5 / (std::sqrt(2.0) * std::sqrt(l5 * l5 + 2 * l3 * l3));
+  EXPECT_GT(to_wave_both_hands, to_raise_arms);
+  EXPECT_GT(to_raise_arms, to_raise_both_arms);
+  EXPECT_NEAR(r.score, to_wave_both_hands, 1e-12);
+  EXPECT_EQ(r.texts, std::vector<std::size_t>{4});
+  EXPECT_EQ(m.lexical_landing("raise").texts, (std::vector<std::size_t>{1}));  // "raise arms" beats "raise both arms"
+  EXPECT_EQ(m.lexical_landing("wave").texts, (std::vector<std::size_t>{4}));   // the co-words of "wave both hands" weigh less
+  // Texts with the same weighted words tie and are returned together; no word in common: nothing.
+  const PromptVocabularyMapper tie(LabelSets{{{"walk"}, {"wave right hand", "wave with the right hand"}}}, nullptr);
+  EXPECT_EQ(tie.lexical_landing("right").texts, (std::vector<std::size_t>{1, 2}));
+  EXPECT_TRUE(m.lexical_landing("jump").texts.empty());
+  EXPECT_EQ(m.lexical_landing("jump").score, 0.0);
+}
+
+TEST(PromptMapper, UnseenPromptsAreConditionedOnTheTrainingTextTheyLandOn) {
+  const Skeleton& skel = humanoid_skeleton();
+  Rng rng(3);
+  BuiltinGenerator g(skel, small_config(), rng);
+  const BuiltinGenerator plain = g;
+  g.set_prompt_mapper(std::make_shared<const PromptVocabularyMapper>(
+      LabelSets{{{"walk"}, {"raise arms"}, {"wave right hand", "wave with the right hand"}}},
+      std::make_shared<const WordNet>(WordNet::load(tiny_dictionary("condition")))));
+  EXPECT_EQ(g.conditioning_text("walk"), "walk");                     // known: as given
+  EXPECT_EQ(g.conditioning_text("elevate your arms"), "raise arms");  // one text lands
+  // "wave the right palm" → "wave the right hand": both wave texts score alike; the embedding decides.
+  const auto emb = [&](const std::string& t) { return VectorXf(plain.denoiser().embed(plain.text_encoder().features(t))); };
+  const VectorXf e = emb("wave the right hand");
+  const auto cos = [&](const std::string& t) { const VectorXf f = emb(t); return e.dot(f) / (e.norm() * f.norm()); };
+  const std::string expected = cos("wave right hand") >= cos("wave with the right hand") ? "wave right hand" : "wave with the right hand";
+  EXPECT_EQ(g.conditioning_text("wave the right palm"), expected);
+  EXPECT_TRUE(g.text_features(TextCondition("wave the right palm")) == plain.text_features(TextCondition(expected)));
+  const PromptLanding l = land_prompt(g, "wave the right palm", {{"walk"}, {"raise arms"}, {"wave right hand", "wave with the right hand"}});
+  EXPECT_EQ(l.conditioned_on, expected);
+  EXPECT_EQ(l.nearest_text, expected);
+  EXPECT_NEAR(l.cosine, 1.0, 1e-6);
+  EXPECT_GT(l.lexical_score, 0.99);
+}
+
+TEST_F(RealWordNet, TagCountsOfWordNet30) {
+  const WordNet& wn = *wn_;
+  if (!wn.has_tag_counts()) GTEST_SKIP() << "no cntlist.rev in " << wn.dir();
+  // cntlist.rev: hit%2:35:03:: 1 25 (sense 1) … hit%2:33:02:: 8 3 (sense 8).
+  EXPECT_EQ(wn.tag_count("hit", PartOfSpeech::verb, 0), 25u);
+  EXPECT_EQ(wn.tag_count("hit", PartOfSpeech::verb, 7), 3u);
+  EXPECT_NEAR(wn.sense_penalty("hit", PartOfSpeech::verb, 7), 0.5 * std::log2(26.0 / 4.0) + 1.75, 1e-12);
 }

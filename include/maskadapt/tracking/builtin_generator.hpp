@@ -21,7 +21,8 @@
 /// prompt_words.hpp derives them from the training data then).
 ///
 /// Words it has not seen: `set_prompt_mapper` (lexicon.hpp) maps a prompt's unknown words onto the
-/// training vocabulary before the hashed features are taken; prompts of known words are unchanged.
+/// training vocabulary, and such a prompt is conditioned on the training text it lands on
+/// (`conditioning_text`); prompts of known words are unchanged.
 ///
 /// Training (`train_generator`): stage 1 fits the VAE on all windows; stage 2 freezes it, encodes
 /// every window once to (μ, σ), and trains the denoiser on z = μ + σ ε / latent_scale with a
@@ -107,8 +108,36 @@ class BuiltinGenerator {
       require_finite(c.embedding, "embedding");
       return c.embedding;
     }
-    if (prompt_mapper_) return text_.features(prompt_mapper_->map(c.text).text);
-    return text_.features(c.text);
+    return text_.features(conditioning_text(c.text));
+  }
+
+  /// The text a prompt is featurised as. Without a prompt mapper, or when every word of the prompt
+  /// is known: the prompt itself. Otherwise the prompt *lands* on a training text and is
+  /// conditioned on it (the generator was trained on those texts only): among the training texts
+  /// the mapped prompt shares most weighted words with (`PromptVocabularyMapper::lexical_landing`),
+  /// the one whose learned embedding is nearest by cosine to the mapped prompt's (ties: the first);
+  /// when it shares no word with any, the mapped prompt itself (featurised as it is). Throws, naming
+  /// the prompt, when none of its words is known or maps onto one.
+  std::string conditioning_text(const std::string& prompt) const {
+    if (!prompt_mapper_) return prompt;
+    const PromptMapping m = prompt_mapper_->map(prompt);
+    if (!m.changed()) return prompt;
+    const LexicalLanding l = prompt_mapper_->lexical_landing(m.text);
+    const auto& texts = prompt_mapper_->training_texts();
+    if (l.texts.empty()) return m.text;
+    if (l.texts.size() == 1) return texts[l.texts.front()];
+    const VectorXf e = denoiser_.embed(text_.features(m.text));
+    double best = -2.0;
+    std::size_t pick = l.texts.front();
+    for (const std::size_t i : l.texts) {
+      const VectorXf f = denoiser_.embed(text_.features(texts[i]));
+      const double c = static_cast<double>(e.dot(f)) / std::max(1e-12, static_cast<double>(e.norm() * f.norm()));
+      if (c > best) {
+        best = c;
+        pick = i;
+      }
+    }
+    return texts[pick];
   }
 
   /// VAE latents (L × B) for normalised histories hn (H·D × B) and text features (K × 1 or K × B):

@@ -13,7 +13,9 @@
 ///   files are parsed on load; each data file is kept in memory and a synset's line is parsed when
 ///   asked for (WordNet's own byte-offset access). A malformed line throws `Error` naming the file
 ///   and the 1-based line; a missing file names its path. `base_forms` is WordNet's *morphy*
-///   (exception lists, then the detachment rules: "ran" → "run", "raising" → "raise").
+///   (exception lists, then the detachment rules: "ran" → "run", "raising" → "raise"). When the
+///   folder has `cntlist.rev` (the Semantic Concordance's sense tag counts), `tag_count` and
+///   `sense_penalty` say how rare a sense is.
 /// - `PromptVocabularyMapper` holds the vocabulary (the lower-cased words of the training texts)
 ///   and maps every word of a prompt (see `map` for the exact, deterministic rule): known words stay;
 ///   a known word's inflection → that word; otherwise the nearest known lemma in WordNet's graph
@@ -21,13 +23,16 @@
 ///   hypernym, …); unknown stop-words ("your", "a", "please") and words that reach nothing are
 ///   dropped. A prompt with words of which none is known and none maps throws `Error` naming the
 ///   prompt and its unknown words. A prompt whose words are all known is returned unchanged (so its
-///   features are bit-for-bit those of the unmapped prompt).
+///   features are bit-for-bit those of the unmapped prompt). The search penalises rare word senses.
+///   `lexical_landing` says which training texts a mapped prompt shares most idf-weighted words with
+///   (`BuiltinGenerator::conditioning_text` conditions the generator on one of them).
 #include <maskadapt/core/error.hpp>
 #include <maskadapt/tracking/text_encoder.hpp>
 
 #include <algorithm>
 #include <array>
 #include <cctype>
+#include <cmath>
 #include <cstdint>
 #include <cstdlib>
 #include <filesystem>
@@ -115,7 +120,35 @@ class WordNet {
       parse_index(read_file((dir / ("index." + s)).string()), (dir / ("index." + s)).string(), pos, part);
       parse_exceptions(read_file((dir / (s + ".exc")).string()), (dir / (s + ".exc")).string(), part);
     }
+    if (const auto cnt = dir / "cntlist.rev"; std::filesystem::is_regular_file(cnt)) {
+      wn.parse_tag_counts(read_file(cnt.string()), cnt.string());
+      wn.has_tag_counts_ = true;
+    }
     return wn;
+  }
+
+  /// True when the folder had `cntlist.rev` (the sense tag counts of the Semantic Concordance;
+  /// Debian's wordnet-base ships it). Without it every tag count is 0.
+  bool has_tag_counts() const { return has_tag_counts_; }
+
+  /// How often sense `k` (0-based, index order) of `lemma` as `pos` was tagged in the Semantic
+  /// Concordance (cntlist.rev; 0 when not listed). E.g. "hit" as a verb: 25 for sense 1, 3 for sense 8.
+  std::uint32_t tag_count(std::string_view lemma, PartOfSpeech pos, std::size_t k) const {
+    const auto& m = parts_[static_cast<std::size_t>(pos)].tag_counts;
+    const auto it = m.find(std::string(lemma));
+    return it == m.end() || k >= it->second.size() ? 0u : it->second[k];
+  }
+
+  /// How rare sense `k` (0-based) of `lemma` as `pos` is, in the mapper's cost units:
+  ///   0.5 · log2((max_j tag_j + 1) / (tag_k + 1)) + 0.25 · k
+  /// (tag counts over the lemma's senses as `pos`; the second term follows WordNet's sense order,
+  /// itself by frequency, and is all there is without tag counts). 0 for the first, most tagged sense;
+  /// "hit" sense 8 (3 tags against 25): 0.5·log2(26/4) + 1.75 ≈ 3.1.
+  double sense_penalty(std::string_view lemma, PartOfSpeech pos, std::size_t k) const {
+    const std::size_t n = senses(lemma, pos).size();
+    std::uint32_t most = 0;
+    for (std::size_t j = 0; j < n; ++j) most = std::max(most, tag_count(lemma, pos, j));
+    return 0.5 * std::log2((most + 1.0) / (tag_count(lemma, pos, k) + 1.0)) + 0.25 * static_cast<double>(k);
   }
 
   const std::filesystem::path& dir() const { return dir_; }
@@ -192,7 +225,32 @@ class WordNet {
     std::unordered_map<std::string, std::vector<std::string>> exceptions;     ///< inflected form → bases
     std::string data;                                                         ///< data.<pos>, whole
     std::string data_path;
+    std::unordered_map<std::string, std::vector<std::uint32_t>> tag_counts;   ///< lemma → tag count per sense (cntlist.rev)
   };
+
+  /// cntlist.rev line: sense_key sense_number tag_cnt, the key "lemma%ss_type:lex_filenum:lex_id:head:head_id"
+  /// (ss_type 1 noun, 2 verb, 3 adjective, 4 adverb, 5 satellite adjective).
+  void parse_tag_counts(const std::string& text, const std::string& path) {
+    for_each_entry(text, path, [&](std::string_view line, std::uint64_t) {
+      const auto t = split_spaces(line);
+      require(t.size() == 3, "a cntlist.rev line needs sense_key, sense_number and tag_cnt, got " + std::to_string(t.size()) +
+                                 " fields", {{}, {}, "tag count"});
+      const std::size_t pct = t[0].find('%');
+      require(pct != std::string_view::npos && pct > 0 && pct + 1 < t[0].size() && t[0][pct + 1] >= '1' && t[0][pct + 1] <= '5',
+              "a sense key is lemma%ss_type:…, ss_type 1–5, got '" + std::string(t[0]) + "'", {{}, {}, "sense_key"});
+      static constexpr std::array<PartOfSpeech, 5> by_type = {PartOfSpeech::noun, PartOfSpeech::verb, PartOfSpeech::adjective,
+                                                              PartOfSpeech::adverb, PartOfSpeech::adjective};
+      const PartOfSpeech pos = by_type[static_cast<std::size_t>(t[0][pct + 1] - '1')];
+      const auto sense = parse_number(t[1], 10, "sense_number");
+      require(sense >= 1 && sense <= 1000, "sense_number must be 1…1000, got " + std::to_string(sense), {{}, {}, "sense_number"});
+      const auto count = parse_number(t[2], 10, "tag_cnt");
+      std::string lemma(t[0].substr(0, pct));
+      for (auto& c : lemma) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+      auto& v = parts_[static_cast<std::size_t>(pos)].tag_counts[lemma];
+      if (v.size() < sense) v.resize(sense, 0u);
+      v[sense - 1] += static_cast<std::uint32_t>(std::min<std::uint64_t>(count, 1u << 30));
+    });
+  }
 
   static std::string read_file(const std::string& path) {
     std::ifstream in(path, std::ios::binary);
@@ -349,6 +407,7 @@ class WordNet {
 
   std::filesystem::path dir_;
   std::array<Part, 4> parts_;
+  bool has_tag_counts_ = false;
 };
 
 /// Function words dropped from a prompt when the vocabulary does not have them (documented list:
@@ -391,9 +450,31 @@ struct PromptMapping {
   }
 };
 
+/// Training texts grouped by the behaviour they name (each set: the texts of one label), for the
+/// mapper's lexical landing (`PromptVocabularyMapper::lexical_landing`).
+struct LabelSets {
+  std::vector<std::vector<std::string>> sets;
+};
+
+/// The training texts a mapped prompt shares most meaning-bearing words with (see `lexical_landing`).
+struct LexicalLanding {
+  double score = 0.0;              ///< the best TF-IDF cosine (0: no word in common with any text)
+  std::vector<std::size_t> texts;  ///< indices into `training_texts()` scoring it (within 1e-9), in order; empty when 0
+};
+
 /// Maps prompts onto a vocabulary through WordNet (see the file comment and `map`).
 class PromptVocabularyMapper {
  public:
+  /// As below, with the texts grouped into label sets: the lexical landing's word weights count
+  /// label sets (a word of many behaviours — "hand" — weighs less than one of a single behaviour).
+  PromptVocabularyMapper(const LabelSets& labels, std::shared_ptr<const WordNet> wordnet, int max_search_cost = 3)
+      : PromptVocabularyMapper(flatten(labels), std::move(wordnet), max_search_cost) {
+    set_of_text_.clear();
+    for (std::size_t s = 0; s < labels.sets.size(); ++s)
+      for (std::size_t k = 0; k < labels.sets[s].size(); ++k) set_of_text_.push_back(s);
+    build_landing();
+  }
+
   /// `training_texts`: the texts whose words form the vocabulary. `wordnet`: may be null — then only
   /// known words and stop-words are handled, other words dropped. `max_search_cost`: the most a
   /// WordNet path may cost (see `map`).
@@ -413,6 +494,40 @@ class PromptVocabularyMapper {
             auto& slot = known_base_[b];
             if (slot.empty() || b == w) slot = w;
           }
+    training_texts_ = training_texts;
+    for (std::size_t i = 0; i < training_texts_.size(); ++i) set_of_text_.push_back(i);  // each text its own set
+    build_landing();
+  }
+
+  /// The training texts, in the order given (the label sets' texts in set order).
+  const std::vector<std::string>& training_texts() const { return training_texts_; }
+
+  /// The word the lexical landing compares: the shortest of its WordNet base forms as noun and verb
+  /// (first found on ties; "arms" → "arm", "jumping" → "jump", "strokes" → "stroke"), else itself.
+  std::string landing_form(const std::string& w) const {
+    if (!wordnet_) return w;
+    std::string best;
+    for (const auto pos : {PartOfSpeech::noun, PartOfSpeech::verb})
+      for (const auto& b : wordnet_->base_forms(w, pos))
+        if (best.empty() || b.size() < best.size()) best = b;
+    return best.empty() ? w : best;
+  }
+
+  /// Which training texts a (mapped) prompt lands on by its words: each text and the prompt are
+  /// bags of landing forms of their words, stop-words and "with", "in" left out; a form weighs
+  /// idf = ln(1 + N / df) (N label sets, df of them that use it; a form no set uses counts df = 1),
+  /// and the score is the cosine of the weighted bags. Returns the best score and every text
+  /// scoring it (within 1e-9); no texts when the best is 0. Deterministic.
+  LexicalLanding lexical_landing(std::string_view mapped_text) const {
+    const auto v = landing_vector(mapped_text);
+    LexicalLanding r;
+    std::vector<double> score(training_texts_.size(), 0.0);
+    for (std::size_t i = 0; i < training_texts_.size(); ++i) score[i] = cosine(v, text_vectors_[i]);
+    for (const double c : score) r.score = std::max(r.score, c);
+    if (r.score <= 0.0) return r;
+    for (std::size_t i = 0; i < score.size(); ++i)
+      if (score[i] >= r.score - 1e-9) r.texts.push_back(i);
+    return r;
   }
 
   const std::set<std::string, std::less<>>& vocabulary() const { return vocabulary_; }
@@ -426,12 +541,16 @@ class PromptVocabularyMapper {
   ///    known word, or the base form of one → that word ("raising" → "raise"; "circle" → "circles",
   ///    the known word whose base form it is);
   /// 4. a best-first search of WordNet's graph from the word's senses (every base form, every part of
-  ///    speech), ordered by (path cost, sense number, part-of-speech order, discovery order): the
-  ///    first synset holding a known lemma (a lemma of the vocabulary, the base form of one, or a
+  ///    speech), ordered by (path cost + the start sense's `WordNet::sense_penalty`, discovery order —
+  ///    parts of speech verb, noun, adjective, adverb, senses in index order): the first synset
+  ///    holding a known lemma (a lemma of the vocabulary, the base form of one, or a
   ///    collocation "jumping_jack" all of whose parts are known) gives the replacement. Edge costs:
   ///    synonyms (same synset) 0; derivation "+", similar "&", pertainym "\", verb group "$", also
   ///    "^", participle "<", attribute "=", part holonym "#p" (palm → hand) 1; hypernym "@"/"@i" 1;
-  ///    hyponym "~"/"~i" 2, and only from the word's own senses. Paths cost at most `max_search_cost` (default 4);
+  ///    hyponym "~"/"~i" 2, and only from the word's own senses. A path's cost, and its cost plus the
+  ///    sense penalty, are at most `max_search_cost` (default 3), so a synonym of a rare sense no longer
+  ///    beats a near word of a frequent one ("strike": the swim's "strokes" through its sense 4 lost
+  ///    to "punch" through sense 1);
   /// 5. otherwise → dropped ("no known word within reach").
   /// When every word is kept (rule 1 only) the prompt is returned unchanged. When the prompt has
   /// words but none is known and none maps, throws Error naming the prompt and its unknown words.
@@ -498,26 +617,29 @@ class PromptVocabularyMapper {
         if (const std::string k = known_for_lemma(b); !k.empty() && b != w)
           return {w, k, "inflection of '" + b + "' (" + wordnet_file_suffix(pos) + ")"};
       }
-    // Best-first search. Key: (cost, sense number, pos order, discovery order).
+    // Best-first search. Key: (total = path cost + the start sense's rarity penalty, discovery order).
     struct Node {
+      double total;
       int cost;
-      std::size_t sense, pos_rank, order;
+      std::size_t order;
       PartOfSpeech pos;
       std::uint64_t offset;
       std::string path;  ///< how we got here, for the explanation
       bool from_start;
     };
     const auto later = [](const Node& a, const Node& b) {
-      return std::tie(a.cost, a.sense, a.pos_rank, a.order) > std::tie(b.cost, b.sense, b.pos_rank, b.order);
+      return std::tie(a.total, a.order) > std::tie(b.total, b.order);
     };
     std::priority_queue<Node, std::vector<Node>, decltype(later)> frontier(later);
     std::size_t order = 0;
     for (const auto& [b, pos] : bases) {
       const auto& offs = wordnet_->senses(b, pos);
-      const auto rank = static_cast<std::size_t>(std::find(kPartsOfSpeech.begin(), kPartsOfSpeech.end(), pos) - kPartsOfSpeech.begin());
-      for (std::size_t k = 0; k < offs.size(); ++k)
-        frontier.push({0, k, rank, order++, pos, offs[k],
+      for (std::size_t k = 0; k < offs.size(); ++k) {
+        const double penalty = wordnet_->sense_penalty(b, pos, k);
+        if (penalty > max_search_cost_) continue;
+        frontier.push({penalty, 0, order++, pos, offs[k],
                        std::string(wordnet_file_suffix(pos)) + " '" + b + "' sense " + std::to_string(k + 1), true});
+      }
     }
     std::set<std::pair<int, std::uint64_t>> done;
     while (!frontier.empty()) {
@@ -542,9 +664,10 @@ class PromptVocabularyMapper {
         else if (p.symbol == "#p") { step = 1; name = "part of"; }
         else if ((p.symbol == "~" || p.symbol == "~i") && n.from_start) { step = 2; name = "hyponym"; }
         else continue;
-        if (n.cost + step > max_search_cost_ || done.count({static_cast<int>(p.pos), p.offset})) continue;
+        if (n.cost + step > max_search_cost_ || n.total + step > max_search_cost_ || done.count({static_cast<int>(p.pos), p.offset}))
+          continue;
         const Synset target_head = wordnet_->synset(p.pos, p.offset);
-        frontier.push({n.cost + step, n.sense, n.pos_rank, order++, p.pos, p.offset,
+        frontier.push({n.total + step, n.cost + step, order++, p.pos, p.offset,
                        n.path + " → " + name + " '" + (target_head.lemmas.empty() ? "?" : target_head.lemmas.front()) + "'",
                        false});
       }
@@ -552,10 +675,63 @@ class PromptVocabularyMapper {
     return {w, "", "no known word within reach in WordNet"};
   }
 
+  static std::vector<std::string> flatten(const LabelSets& l) {
+    std::vector<std::string> t;
+    for (const auto& s : l.sets) t.insert(t.end(), s.begin(), s.end());
+    return t;
+  }
+
+  using Bag = std::map<std::string, double, std::less<>>;  ///< landing form → weight (sorted: deterministic sums)
+
+  static bool landing_ignores(const std::string& w) {
+    return w == "with" || w == "in" || prompt_stop_words().count(w) > 0;
+  }
+
+  Bag landing_vector(std::string_view text) const {
+    Bag v;
+    for (const auto& w : tokenize_words(text)) {
+      if (landing_ignores(w)) continue;
+      const std::string f = landing_form(w);
+      const auto it = idf_.find(f);
+      v[f] += it == idf_.end() ? std::log(1.0 + static_cast<double>(num_sets_)) : it->second;
+    }
+    return v;
+  }
+
+  static double cosine(const Bag& a, const Bag& b) {
+    double dot = 0.0, na = 0.0, nb = 0.0;
+    for (const auto& [k, x] : a) {
+      na += x * x;
+      if (const auto it = b.find(k); it != b.end()) dot += x * it->second;
+    }
+    for (const auto& [k, x] : b) nb += x * x;
+    return na > 0.0 && nb > 0.0 ? dot / std::sqrt(na * nb) : 0.0;
+  }
+
+  /// idf over the label sets (set_of_text_), then each training text's weighted bag.
+  void build_landing() {
+    std::map<std::string, std::set<std::size_t>, std::less<>> sets_of;
+    num_sets_ = 0;
+    for (std::size_t i = 0; i < training_texts_.size(); ++i) {
+      num_sets_ = std::max(num_sets_, set_of_text_[i] + 1);
+      for (const auto& w : tokenize_words(training_texts_[i]))
+        if (!landing_ignores(w)) sets_of[landing_form(w)].insert(set_of_text_[i]);
+    }
+    idf_.clear();
+    for (const auto& [f, ss] : sets_of) idf_[f] = std::log(1.0 + static_cast<double>(num_sets_) / static_cast<double>(ss.size()));
+    text_vectors_.clear();
+    for (const auto& t : training_texts_) text_vectors_.push_back(landing_vector(t));
+  }
+
   std::set<std::string, std::less<>> vocabulary_;
+  std::vector<std::string> training_texts_;
+  std::vector<std::size_t> set_of_text_;  ///< label set of each training text
+  std::size_t num_sets_ = 0;
+  std::map<std::string, double, std::less<>> idf_;
+  std::vector<Bag> text_vectors_;
   std::map<std::string, std::string, std::less<>> known_base_;  ///< WordNet base form → vocabulary word
   std::shared_ptr<const WordNet> wordnet_;
-  int max_search_cost_ = 4;
+  int max_search_cost_ = 3;
 };
 
 }  // namespace maskadapt::tracking

@@ -64,11 +64,9 @@ inline TrainingLabels generator_training_labels(const BuiltinGenerator& g, const
 /// there (else none: unknown words are dropped, not mapped; `wordnet_available` tells).
 inline std::shared_ptr<const PromptVocabularyMapper> make_prompt_mapper(const std::vector<std::vector<std::string>>& labels,
                                                                         const std::filesystem::path& wordnet_dir = default_wordnet_dir()) {
-  std::vector<std::string> texts;
-  for (const auto& s : labels) texts.insert(texts.end(), s.begin(), s.end());
   std::shared_ptr<const WordNet> wn;
   if (wordnet_available(wordnet_dir)) wn = std::make_shared<const WordNet>(WordNet::load(wordnet_dir));
-  return std::make_shared<const PromptVocabularyMapper>(texts, std::move(wn));
+  return std::make_shared<const PromptVocabularyMapper>(LabelSets{labels}, std::move(wn));
 }
 
 /// Where a prompt lands among the training labels.
@@ -77,15 +75,21 @@ struct PromptLanding {
   std::size_t label_set = 0; ///< index into the label sets: the first set holding the nearest text
   std::string nearest_text;  ///< the training text nearest by cosine of the learned text embedding
   double cosine = 0.0;
+  std::string conditioned_on;  ///< what g featurises (`BuiltinGenerator::conditioning_text`)
+  double lexical_score = 0.0;  ///< the mapped prompt's best `lexical_landing` score (0 when unchanged or no mapper)
 };
 
 /// The training text whose learned embedding, `g.denoiser().embed(g.text_features(text))` (E), is
-/// nearest to the prompt's by cosine (ties: the first in set order). Uses g's prompt mapper when set.
+/// nearest to the prompt's by cosine (ties: the first in set order). Uses g's prompt mapper when set
+/// (a prompt with unseen words is then featurised as the training text it lands on, so it lands there
+/// with cosine 1 unless it shares no word with any training text).
 inline PromptLanding land_prompt(const BuiltinGenerator& g, const std::string& prompt,
                                  const std::vector<std::vector<std::string>>& label_sets) {
   require(!label_sets.empty(), "no training labels", {{}, {}, "label_sets"});
   PromptLanding r;
   r.mapping = g.prompt_mapper() ? g.prompt_mapper()->map(prompt) : PromptMapping{prompt, prompt, {}};
+  r.conditioned_on = g.conditioning_text(prompt);
+  if (g.prompt_mapper() && r.mapping.changed()) r.lexical_score = g.prompt_mapper()->lexical_landing(r.mapping.text).score;
   const VectorXf e = g.denoiser().embed(g.text_features(TextCondition(prompt)));
   double best = -2.0;
   for (std::size_t s = 0; s < label_sets.size(); ++s)
