@@ -78,7 +78,7 @@ struct GenerateOptions {
 struct MapPromptOptions {
   std::string checkpoint, data, wordnet;
   std::vector<std::string> prompts;
-  bool paraphrases = false, vocabulary = false;
+  bool paraphrases = false, heldout = false, vocabulary = false, labels = false;
 };
 
 /// The generator's training labels and a prompt mapper over them (WordNet from --wordnet, else
@@ -256,8 +256,10 @@ void run_generate(const GenerateOptions& o) {
   }
   if (g.prompt_mapper())
     for (const auto& tt : schedule) {
-      const std::string line = g.prompt_mapper()->map(tt.text).describe();  // throws for a prompt of unknown words only
-      std::cout << "prompt " << line << "\n";
+      const PromptMapping m = g.prompt_mapper()->map(tt.text);  // throws for a prompt of unknown words only
+      std::cout << "prompt " << m.describe();
+      if (m.changed()) std::cout << "; conditioned on the training text '" << g.conditioning_text(tt.text) << "'";
+      std::cout << "\n";
     }
   const Trajectory hist = history_from(o.from, skel, g.history_frames());
   Rng rng(o.seed);
@@ -291,7 +293,8 @@ void run_generate(const GenerateOptions& o) {
   }
 }
 
-void print_paraphrase_table(const BuiltinGenerator& g, const TrainingLabels& labels);
+void print_paraphrase_table(const BuiltinGenerator& g, const TrainingLabels& labels, const std::vector<Paraphrase>& list,
+                            const std::string& name);
 
 void run_map_prompt(const MapPromptOptions& o) {
   const Skeleton& skel = humanoid_skeleton();
@@ -303,34 +306,51 @@ void run_map_prompt(const MapPromptOptions& o) {
     for (const auto& w : g.prompt_mapper()->vocabulary()) std::cout << " " << w;
     std::cout << "\n";
   }
+  if (o.labels)
+    for (const auto& set : labels.sets) {
+      std::cout << "label set:";
+      for (const auto& t : set) std::cout << " '" << t << "'";
+      std::cout << "\n";
+    }
   const auto label_of = [&](const PromptLanding& l) { return labels.sets[l.label_set].front(); };
   std::vector<std::string> refused;
   for (const auto& p : o.prompts) {
     try {
       const PromptLanding l = land_prompt(g, p, labels.sets);
       std::cout << "prompt " << l.mapping.describe() << "\n  lands on '" << label_of(l) << "' (nearest training text '"
-                << l.nearest_text << "', cosine " << std::fixed << std::setprecision(3) << l.cosine << ")\n";
+                << l.nearest_text << "', cosine " << std::fixed << std::setprecision(3) << l.cosine << ")";
+      if (l.mapping.changed())
+        std::cout << "; conditioned on '" << l.conditioned_on << "' (word overlap " << l.lexical_score << ")";
+      std::cout << "\n";
       std::cout.unsetf(std::ios::floatfield);
     } catch (const Error& e) {  // a prompt of unknown words only: say so, go on with the others
       std::cout << "prompt '" << p << "': " << e.what() << "\n";
       refused.push_back(p);
     }
   }
-  if (o.paraphrases) print_paraphrase_table(g, labels);
+  if (o.paraphrases) print_paraphrase_table(g, labels, unseen_word_paraphrases(), "paraphrases");
+  if (o.heldout) print_paraphrase_table(g, labels, heldout_paraphrases(), "held-out paraphrases");
   require(refused.empty(), std::to_string(refused.size()) + " prompt(s) have no known word and none maps onto one", {{}, {}, "prompts"});
 }
 
-/// The table of docs/generator.md "Words it has not seen": each built-in paraphrase, its mapping,
-/// where it lands, and the share that lands on the label meant.
-void print_paraphrase_table(const BuiltinGenerator& g, const TrainingLabels& labels) {
+/// The tables of docs/generator.md "Words it has not seen": each paraphrase of `list`, its mapping,
+/// where it lands, and the share that lands on the label meant ("… <name> land on …").
+void print_paraphrase_table(const BuiltinGenerator& g, const TrainingLabels& labels, const std::vector<Paraphrase>& list,
+                            const std::string& name) {
   const auto label_of = [&](const PromptLanding& l) { return labels.sets[l.label_set].front(); };
-  std::cout << "\n| paraphrase | mapped prompt | lands on (nearest training text, cosine) | meant | correct |\n| --- | --- | --- | --- | --- |\n";
+  std::cout << "\n| paraphrase | mapped prompt | word overlap | lands on (nearest training text, cosine) | meant | correct |\n"
+               "| --- | --- | --- | --- | --- | --- |\n";
   int correct = 0, total = 0;
-  for (const auto& para : unseen_word_paraphrases()) {
-    std::string mapped, landed, ok = "no";
+  for (const auto& para : list) {
+    std::string mapped, overlap = "—", landed, ok = "no";
     try {
       const PromptLanding l = land_prompt(g, para.text, labels.sets);
       mapped = l.mapping.changed() ? l.mapping.text : "(unchanged)";
+      if (l.mapping.changed()) {
+        std::ostringstream o;
+        o << std::fixed << std::setprecision(3) << l.lexical_score;
+        overlap = o.str();
+      }
       std::ostringstream c;
       c << std::fixed << std::setprecision(3) << l.cosine;
       landed = label_of(l) + " ('" + l.nearest_text + "', " + c.str() + ")";
@@ -343,9 +363,10 @@ void print_paraphrase_table(const BuiltinGenerator& g, const TrainingLabels& lab
       landed = "—";
     }
     ++total;
-    std::cout << "| " << para.text << " | " << mapped << " | " << landed << " | " << para.intended << " | " << ok << " |\n";
+    std::cout << "| " << para.text << " | " << mapped << " | " << overlap << " | " << landed << " | " << para.intended << " | " << ok
+              << " |\n";
   }
-  std::cout << "\n" << correct << " of " << total << " paraphrases land on the label meant ("
+  std::cout << "\n" << correct << " of " << total << " " << name << " land on the label meant ("
             << std::fixed << std::setprecision(1) << 100.0 * correct / total << " %)\n";
   std::cout.unsetf(std::ios::floatfield);
 }
@@ -522,7 +543,9 @@ const bool registered = maskadapt::cli::register_command([](CLI::App& app) {
   mp->add_option("--data", mopt->data, "data directory holding motions/, to derive the training labels of a checkpoint that does not record them (default: $MASKADAPT_DATA_DIR, else ../shared/data)");
   mp->add_option("--wordnet", mopt->wordnet, "WordNet dictionary folder (default: $MASKADAPT_WORDNET_DIR, else /usr/share/wordnet)");
   mp->add_flag("--paraphrases", mopt->paraphrases, "also the table of the built-in paraphrases (docs/generator.md): mapped prompt, landing label, % correct");
+  mp->add_flag("--heldout", mopt->heldout, "also the table of the held-out paraphrases (docs/generator.md; never used to tune the mapping)");
   mp->add_flag("--vocabulary", mopt->vocabulary, "list the vocabulary");
+  mp->add_flag("--labels", mopt->labels, "list the training label sets (a landing is correct when it falls in the set of the label meant)");
   mp->callback([mopt] { run_map_prompt(*mopt); });
 
   auto eopt = std::make_shared<EvalOptions>();
