@@ -14,15 +14,7 @@ using namespace maskadapt::tracking;
 
 namespace {
 
-BuiltinGeneratorConfig small_config() {
-  BuiltinGeneratorConfig c;
-  c.vae.hidden = {128};
-  c.vae.latent = 16;
-  c.denoiser.hidden = {128};
-  c.denoiser.text_embed = 16;
-  c.denoiser.text_features = 64;
-  return c;
-}
+BuiltinGeneratorConfig small_config() { return test::small_generator_config(128, 16); }
 
 /// Mean body-position error (m) over every future frame and body when each window is encoded to
 /// its posterior mean and decoded again.

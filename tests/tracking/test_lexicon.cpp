@@ -142,15 +142,7 @@ std::string error_of(Fn&& fn) {
   return {};
 }
 
-BuiltinGeneratorConfig small_config() {
-  BuiltinGeneratorConfig c;
-  c.vae.hidden = {32};
-  c.vae.latent = 8;
-  c.denoiser.hidden = {32};
-  c.denoiser.text_embed = 8;
-  c.denoiser.text_features = 64;
-  return c;
-}
+BuiltinGeneratorConfig small_config() { return test::small_generator_config(32, 8); }
 
 const std::vector<std::string> kTexts = {"walk", "raise arms", "wave right hand", "wave with the right hand"};
 

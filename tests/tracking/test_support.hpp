@@ -1,12 +1,25 @@
 #pragma once
 // Small hand-made motions on the reference humanoid for the tracking tests.
 #include <maskadapt/humanoid/description.hpp>
+#include <maskadapt/tracking/builtin_generator.hpp>
 #include <maskadapt/tracking/generator.hpp>
 #include <maskadapt/tracking/primitive_dataset.hpp>
 
 #include <cmath>
 
 namespace maskadapt::tracking::test {
+
+/// A generator small enough for unit tests: `width` hidden units in the VAE and the denoiser,
+/// `latent` latent and text-embedding dimensions, 64 hashed text features.
+inline BuiltinGeneratorConfig small_generator_config(Index width, Index latent) {
+  BuiltinGeneratorConfig c;
+  c.vae.hidden = {width};
+  c.vae.latent = latent;
+  c.denoiser.hidden = {width};
+  c.denoiser.text_embed = latent;
+  c.denoiser.text_features = 64;
+  return c;
+}
 
 /// n frames at 30 Hz: the root walks forward at `speed` m/s while turning at `turn` rad/s and
 /// bobbing; the shoulders swing with amplitude `arm` rad and the elbows follow.
