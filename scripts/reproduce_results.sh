@@ -406,7 +406,8 @@ recipe_long() {
   bgf recipe_chunks strike appr04w19 --strike-approach-weight 0.4 --objective-weights 0.1 0.9
   join
 }
-# recipe_chunks TASK VARIANT FLAGS… — seed 1, one thread, chunks of 1,500 iterations to 9,000
+# recipe_chunks TASK VARIANT FLAGS… — seed 1, one thread, chunks of 1,500 iterations (the page has heading
+# to 3,000 and strike to 6,000; the chunks after that are the next steps)
 recipe_chunks() {
   local task=$1 variant=$2 it
   shift 2
