@@ -419,18 +419,7 @@ inline const std::vector<std::string>& default_paraphrases() {
 inline std::pair<std::size_t, double> nearest_prompt(const BuiltinGenerator& g, const std::string& text,
                                                      const std::vector<std::string>& prompts) {
   require(!prompts.empty(), "no prompts", {{}, {}, "prompts"});
-  const VectorXf e = g.denoiser().embed(g.text_encoder().features(text));
-  std::size_t best = 0;
-  double best_c = -2.0;
-  for (std::size_t i = 0; i < prompts.size(); ++i) {
-    const VectorXf f = g.denoiser().embed(g.text_encoder().features(prompts[i]));
-    const double c = static_cast<double>(e.dot(f)) / std::max(1e-12, static_cast<double>(e.norm() * f.norm()));
-    if (c > best_c) {
-      best_c = c;
-      best = i;
-    }
-  }
-  return {best, best_c};
+  return g.nearest_by_embedding(g.text_embedding(text), prompts);
 }
 
 }  // namespace maskadapt::tracking

@@ -126,18 +126,29 @@ class BuiltinGenerator {
     const auto& texts = prompt_mapper_->training_texts();
     if (l.texts.empty()) return m.text;
     if (l.texts.size() == 1) return texts[l.texts.front()];
-    const VectorXf e = denoiser_.embed(text_.features(m.text));
-    double best = -2.0;
-    std::size_t pick = l.texts.front();
-    for (const std::size_t i : l.texts) {
-      const VectorXf f = denoiser_.embed(text_.features(texts[i]));
+    std::vector<std::string> tied;
+    for (const std::size_t i : l.texts) tied.push_back(texts[i]);
+    return tied[nearest_by_embedding(text_embedding(m.text), tied).first];
+  }
+
+  /// The learned embedding (E) of `text`'s hashed features, as given (no prompt mapping).
+  VectorXf text_embedding(const std::string& text) const { return denoiser_.embed(text_.features(text)); }
+
+  /// The text of `candidates` whose `text_embedding` is nearest to `e` (E) by cosine, ties the
+  /// first: (index, cosine).
+  std::pair<std::size_t, double> nearest_by_embedding(const VectorXf& e, const std::vector<std::string>& candidates) const {
+    require(!candidates.empty(), "no candidate texts", {{}, {}, "candidates"});
+    std::size_t best = 0;
+    double best_c = -2.0;
+    for (std::size_t i = 0; i < candidates.size(); ++i) {
+      const VectorXf f = text_embedding(candidates[i]);
       const double c = static_cast<double>(e.dot(f)) / std::max(1e-12, static_cast<double>(e.norm() * f.norm()));
-      if (c > best) {
-        best = c;
-        pick = i;
+      if (c > best_c) {
+        best_c = c;
+        best = i;
       }
     }
-    return texts[pick];
+    return {best, best_c};
   }
 
   /// VAE latents (L × B) for normalised histories hn (H·D × B) and text features (K × 1 or K × B):

@@ -90,19 +90,17 @@ inline PromptLanding land_prompt(const BuiltinGenerator& g, const std::string& p
   r.mapping = g.prompt_mapper() ? g.prompt_mapper()->map(prompt) : PromptMapping{prompt, prompt, {}};
   r.conditioned_on = g.conditioning_text(prompt);
   if (g.prompt_mapper() && r.mapping.changed()) r.lexical_score = g.prompt_mapper()->lexical_landing(r.mapping.text).score;
-  const VectorXf e = g.denoiser().embed(g.text_features(TextCondition(prompt)));
-  double best = -2.0;
+  std::vector<std::string> texts;  // every label set's texts in order, and the set each came from
+  std::vector<std::size_t> set_of;
   for (std::size_t s = 0; s < label_sets.size(); ++s)
     for (const auto& t : label_sets[s]) {
-      const VectorXf f = g.denoiser().embed(g.text_encoder().features(t));
-      const double c = static_cast<double>(e.dot(f)) / std::max(1e-12, static_cast<double>(e.norm() * f.norm()));
-      if (c > best) {
-        best = c;
-        r.label_set = s;
-        r.nearest_text = t;
-      }
+      texts.push_back(t);
+      set_of.push_back(s);
     }
-  r.cosine = best;
+  const auto [i, c] = g.nearest_by_embedding(g.denoiser().embed(g.text_features(TextCondition(prompt))), texts);
+  r.label_set = set_of[i];
+  r.nearest_text = texts[i];
+  r.cosine = c;
   return r;
 }
 
