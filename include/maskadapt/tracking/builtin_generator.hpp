@@ -400,6 +400,16 @@ struct GeneratorTrainReport {
   double select_seconds = 0.0;      ///< time spent scoring (not part of diffusion_seconds' budget check)
 };
 
+/// The distinct non-empty label sets among `sets` (each a list of texts naming one behaviour), in
+/// order of first use: a generator's vocabulary. `train_generator` records those of its dataset's
+/// `label_texts`; prompt_words.hpp derives them from clips for checkpoints without that record.
+inline std::vector<std::vector<std::string>> distinct_label_sets(const std::vector<std::vector<std::string>>& sets) {
+  std::vector<std::vector<std::string>> out;
+  for (const auto& texts : sets)
+    if (!texts.empty() && std::find(out.begin(), out.end(), texts) == out.end()) out.push_back(texts);
+  return out;
+}
+
 /// Scores a generator for `GeneratorTrainConfig::select_every` (higher is better).
 using GeneratorScore = std::function<double(const BuiltinGenerator&)>;
 
@@ -467,12 +477,7 @@ inline GeneratorTrainReport train_generator(BuiltinGenerator& g, const Primitive
     require(data.label.size() == static_cast<std::size_t>(data.size()), "dataset has no per-window labels",
             {{}, {}, "dataset.label"});
     std::vector<std::vector<VectorXf>> label_feats(data.label_texts.size());
-    {  // the distinct label sets: the generator's vocabulary (saved as "generator.training_labels")
-      std::vector<std::vector<std::string>> distinct;
-      for (const auto& texts : data.label_texts)
-        if (!texts.empty() && std::find(distinct.begin(), distinct.end(), texts) == distinct.end()) distinct.push_back(texts);
-      g.set_training_labels(std::move(distinct));
-    }
+    g.set_training_labels(distinct_label_sets(data.label_texts));  // its vocabulary ("generator.training_labels")
     for (std::size_t c = 0; c < data.label_texts.size(); ++c)
       for (const auto& t : data.label_texts[c]) label_feats[c].push_back(g.text_encoder().features(t));
     nn::Adam<float> adam(ac);

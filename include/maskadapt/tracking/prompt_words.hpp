@@ -34,17 +34,15 @@ struct TrainingLabels {
   std::string source;  ///< "the checkpoint" or "derived from the training data under <dir>"
 };
 
-/// The distinct label sets of `clips` (their texts and their segments' texts), in order of first use.
+/// The distinct non-empty label sets of `clips` (each clip's texts, then its segments' texts), in
+/// order of first use (`distinct_label_sets` of builtin_generator.hpp over those lists).
 inline std::vector<std::vector<std::string>> distinct_label_sets(const std::vector<LabelledTrajectory>& clips) {
-  std::vector<std::vector<std::string>> out;
-  const auto add = [&](const std::vector<std::string>& t) {
-    if (!t.empty() && std::find(out.begin(), out.end(), t) == out.end()) out.push_back(t);
-  };
+  std::vector<std::vector<std::string>> sets;
   for (const auto& c : clips) {
-    add(c.texts);
-    for (const auto& s : c.segments) add(s.texts);
+    sets.push_back(c.texts);
+    for (const auto& s : c.segments) sets.push_back(s.texts);
   }
-  return out;
+  return distinct_label_sets(sets);
 }
 
 /// See the file comment. Throws when the checkpoint has no record and data_dir holds no clips.
