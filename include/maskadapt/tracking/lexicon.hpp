@@ -32,6 +32,7 @@
 #include <algorithm>
 #include <array>
 #include <cctype>
+#include <charconv>
 #include <cmath>
 #include <cstdint>
 #include <cstdlib>
@@ -44,6 +45,7 @@
 #include <sstream>
 #include <string>
 #include <string_view>
+#include <system_error>
 #include <tuple>
 #include <unordered_map>
 #include <unordered_set>
@@ -244,8 +246,7 @@ class WordNet {
       const auto sense = parse_number(t[1], 10, "sense_number");
       require(sense >= 1 && sense <= 1000, "sense_number must be 1…1000, got " + std::to_string(sense), {{}, {}, "sense_number"});
       const auto count = parse_number(t[2], 10, "tag_cnt");
-      std::string lemma(t[0].substr(0, pct));
-      for (auto& c : lemma) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+      const std::string lemma = lower_case(std::string(t[0].substr(0, pct)));
       auto& v = parts_[static_cast<std::size_t>(pos)].tag_counts[lemma];
       if (v.size() < sense) v.resize(sense, 0u);
       v[sense - 1] += static_cast<std::uint32_t>(std::min<std::uint64_t>(count, 1u << 30));
@@ -275,20 +276,21 @@ class WordNet {
     return t;
   }
 
-  /// Unsigned number in `base` (10 or 16); throws naming `what` otherwise.
+  /// Unsigned number in `base` (10 or 16), the whole field; throws naming `what` otherwise.
   static std::uint64_t parse_number(std::string_view s, int base, const std::string& what) {
     require(!s.empty() && s.size() <= 16, "expected a number for " + what + ", got '" + std::string(s) + "'", {{}, {}, what});
     std::uint64_t v = 0;
-    for (char c : s) {
-      int d = -1;
-      if (c >= '0' && c <= '9') d = c - '0';
-      else if (base == 16 && c >= 'a' && c <= 'f') d = c - 'a' + 10;
-      else if (base == 16 && c >= 'A' && c <= 'F') d = c - 'A' + 10;
-      require(d >= 0, "expected a " + std::string(base == 16 ? "hexadecimal" : "decimal") + " number for " + what +
-                          ", got '" + std::string(s) + "'", {{}, {}, what});
-      v = v * static_cast<std::uint64_t>(base) + static_cast<std::uint64_t>(d);
-    }
+    const char* const end = s.data() + s.size();
+    const auto [stop, ec] = std::from_chars(s.data(), end, v, base);
+    require(ec == std::errc{} && stop == end, "expected a " + std::string(base == 16 ? "hexadecimal" : "decimal") +
+                                                  " number for " + what + ", got '" + std::string(s) + "'", {{}, {}, what});
     return v;
+  }
+
+  /// `s` with ASCII letters lower-cased (WordNet's lemmas: "Achilles" → "achilles").
+  static std::string lower_case(std::string s) {
+    for (auto& c : s) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+    return s;
   }
 
   static PartOfSpeech pos_from_char(std::string_view s, const std::string& what) {
@@ -383,9 +385,7 @@ class WordNet {
     std::size_t i = 4;
     require(t.size() >= i + 2 * words + 1, "w_cnt " + std::to_string(words) + " words do not fit the line", {{}, {}, "w_cnt"});
     for (std::uint64_t w = 0; w < words; ++w, i += 2) {
-      std::string lemma(t[i]);
-      if (const auto paren = lemma.find('('); paren != std::string::npos) lemma.resize(paren);  // adjective markers "(a)", "(p)", "(ip)"
-      for (auto& c : lemma) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+      std::string lemma = lower_case(std::string(t[i].substr(0, t[i].find('('))));  // drops adjective markers "(a)", "(p)", "(ip)"
       (void)parse_number(t[i + 1], 16, "lex_id");
       s.lemmas.push_back(std::move(lemma));
     }
