@@ -587,10 +587,10 @@ void run_eval(const EvalArgs& a) {
   const ResidualTrainConfig c = residual_config_from_json(nlohmann::json::parse(ck.get_string("residual_config")), a.checkpoint);
   const std::string task = a.task.empty() ? c.task : a.task;
   require(task == c.task, "this checkpoint was trained for " + c.task + ", not " + task, {{}, {}, "--task"});
-  if (is_goal_task(task)) {  // goal tasks read --envs and --mask of the composition flags
+  if (is_goal_task(task)) {  // goal tasks read --envs, --mask and --threshold of the composition flags
     std::vector<std::string> refused = a.tracking_only;
     for (const auto& f : a.composition_only)
-      if (f != "--envs" && f != "--mask") refused.push_back(f);
+      if (f != "--envs" && f != "--mask" && f != "--threshold") refused.push_back(f);
     require_task_flags(refused, task, "composition / tracking");
   } else {
     require_task_flags(task == "tracking" ? a.composition_only : a.tracking_only, task,
@@ -618,11 +618,17 @@ void run_eval(const EvalArgs& a) {
     // the paper's reward whatever shaping the run trained with, so that mean rewards compare
     // across runs (the success test does not depend on it)
     const ResidualTrainConfig paper_rewards;
+    // the cell's composed motion B on its first training mask, measured beside the success rate
+    std::shared_ptr<MotionLibrary> new_lib;
+    std::optional<ComposedMotion> composed;
+    if (!c.new_motions.empty()) {
+      new_lib = load_motion_library(c.new_motions, data_dir(), character);
+      composed = ComposedMotion{new_lib.get(), PartMask::parse(c.masks.front(), "masks"), a.threshold_per_body};
+    }
     auto evaluate = [&]<class Policy>() {
       const auto pol = stage2_policy_from_checkpoint<Policy>(ck, sim.skeleton());
       return evaluate_goal_task(sim, pol, make_goal_task(task, paper_rewards, sim, opt.seed), mask,
-                                library_reset_sampler(base_lib), fall, opt,
-                                &pool);
+                                library_reset_sampler(base_lib), fall, opt, &pool, composed);
     };
     const GoalEvalResult r = c.method == "adaptnet" ? evaluate.template operator()<adapt::AdaptNetPolicy<float>>()
                                                     : evaluate.template operator()<adapt::ResidualPolicy<float>>();
@@ -630,6 +636,10 @@ void run_eval(const EvalArgs& a) {
                 "episode's time limit, not counted); %d envs x %lld steps, mask %s, mean %s reward %.3f, fall rate %.3f\n",
                 task.c_str(), 100 * r.trials.rate(), 100 * r.ci_low, 100 * r.ci_high, r.trials.trials, r.trials.censored,
                 a.envs, r.steps, mask.to_string().c_str(), task.c_str(), r.mean_reward, r.fall_rate);
+    if (r.composed)
+      std::printf("composed motion on %s: H_norm %.3f vs B, %.1f %% of frames within %.2f m per body of a frame of B\n",
+                  r.composed->parts.to_string().c_str(), r.composed->h_norm, 100 * r.composed->matched,
+                  r.composed->threshold_per_body);
     j["envs"] = a.envs;
     j["mask"] = mask.to_string();
     j["trials"] = r.trials.trials;
@@ -640,6 +650,12 @@ void run_eval(const EvalArgs& a) {
     j["steps"] = r.steps;
     j["mean_reward"] = r.mean_reward;
     j["fall_rate"] = std::isfinite(r.fall_rate) ? nlohmann::json(r.fall_rate) : nlohmann::json(nullptr);
+    if (r.composed)
+      j["composed_motion"] = {{"parts", r.composed->parts.to_string()},
+                              {"threshold_per_body_m", r.composed->threshold_per_body},
+                              {"h_norm", r.composed->h_norm},
+                              {"matched", r.composed->matched},
+                              {"new_motion_clips", clip_list_json(*new_lib)}};
   } else if (task == "composition") {
     auto new_lib = load_motion_library(a.new_motion.empty() ? c.new_motions : a.new_motion, data_dir(), character);
     ThreadPool pool(static_cast<std::size_t>(c.rl.run.threads));
@@ -849,7 +865,7 @@ const bool registered = maskadapt::cli::register_command([](CLI::App& app) {
   v->add_option("--motions", e->motions, "base motion set A / reference walk (default: the training set)");
   v->add_option("--envs", e->envs, "composition: envs (default 10)")->transform(integer_in(1, kMaxEnvs));
   v->add_option("--frames", e->frames, "composition: frames per env (default 1000)")->transform(positive_integer());
-  v->add_option("--threshold", e->threshold_per_body, "composition: visitation threshold per body (m, default 0.1)")
+  v->add_option("--threshold", e->threshold_per_body, "composition, and a goal task's composed motion: visitation threshold per body (m, default 0.1)")
       ->check(positive_real());
   v->add_option("--prompts", e->prompts, "tracking: prompts (default: the run's --texts, else the generator's arms pool)");
   v->add_option("--num-prompts", e->num_prompts, "tracking: at most this many prompts (default 10)")

@@ -582,6 +582,49 @@ TEST(ResidualEval, GoalTaskTrialsCutByTheTimeLimitAreCensored) {
   EXPECT_EQ(r.steps % 30, 20) << "stops when the 20th counted trial (a goal's expiry at step 20 of an episode) ends";
 }
 
+// The composed motion beside the success rate: with a threshold wider than any distance every
+// simulated frame is within it of every frame of B (matched 1, H_norm 1: uniform visits); with a
+// zero threshold only frames exactly on a frame of B count, fewer than all; the success count and
+// the steps do not depend on it; bad parts and thresholds are refused.
+TEST(ResidualEval, GoalTaskMeasuresTheComposedMotionBesideSuccess) {
+  Data d;
+  const Skeleton& skel = d.skel;
+  const adapt::ResidualPolicy<float> pol = tiny_location_residual(skel);
+  GoalEvalOptions opt;
+  opt.min_trials = 12;
+  opt.episode_seconds = 1000.0;
+  const FallCriteria never = never_falls(skel);
+  tasks::LocationConfig lc;
+  lc.schedule = {5, 8};
+  const PartMask arms = PartMask::parse("arms");
+  auto run = [&](std::optional<ComposedMotion> composed) {
+    TinyWalkerSim sim(4);
+    return evaluate_goal_task<TinyWalkerSim>(sim, pol, tasks::LocationTask(lc, 4), arms, upright(skel), never, opt, nullptr,
+                                             composed);
+  };
+  const GoalEvalResult plain = run(std::nullopt);
+  EXPECT_FALSE(plain.composed.has_value());
+  for (const double threshold : {1e3, 0.0}) {
+    const GoalEvalResult r = run(ComposedMotion{&d.added, arms, threshold});
+    ASSERT_TRUE(r.composed.has_value()) << threshold;
+    EXPECT_EQ(r.composed->parts, arms);
+    EXPECT_EQ(r.composed->threshold_per_body, threshold);
+    EXPECT_EQ(r.trials.successes, plain.trials.successes) << threshold;
+    EXPECT_EQ(r.steps, plain.steps) << threshold;
+    if (threshold > 1) {
+      EXPECT_EQ(r.composed->matched, 1.0);
+      EXPECT_NEAR(r.composed->h_norm, 1.0, 1e-12);
+    } else {
+      EXPECT_LT(r.composed->matched, 0.5);
+      EXPECT_GE(r.composed->h_norm, 0.0);
+      EXPECT_LE(r.composed->h_norm, 1.0);
+    }
+  }
+  EXPECT_THROW(run(ComposedMotion{&d.added, PartMask::all(), 0.1}), Error);
+  EXPECT_THROW(run(ComposedMotion{nullptr, arms, 0.1}), Error);
+  EXPECT_THROW(run(ComposedMotion{&d.added, arms, std::nan("")}), Error);
+}
+
 // AdaptNet through the same trainer (the policy is a template parameter): on a location goal
 // with an imitation discriminator of the base motion, it trains (the adaptation moves, the frozen
 // base does not) and resumes bit-exactly.

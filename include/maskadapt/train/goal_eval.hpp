@@ -11,6 +11,12 @@
 /// Actions go to the simulator as the PD targets offset + scale ⊙ â of the base's action space,
 /// exactly as in training; the goal task's side of every step is tasks::advance_goal, the same
 /// function the trainer calls.
+///
+/// The composed motion (Table 3's cells compose a motion B on some parts while pursuing the goal):
+/// given B and its parts, every simulated frame's features of those parts are compared with every
+/// frame of B, exactly as evaluate_composition's adapted side (residual_eval.hpp): H_norm(parts | B)
+/// and the share of frames within threshold_per_body · √(bodies) of some frame of B. So a cell that
+/// reaches its goal by giving up the swim or the punch shows it beside its success rate.
 #include <maskadapt/adapt/residual_policy.hpp>
 #include <maskadapt/core/error.hpp>
 #include <maskadapt/core/rng.hpp>
@@ -20,8 +26,10 @@
 #include <maskadapt/train/residual_eval.hpp>
 #include <maskadapt/train/stage2_policy.hpp>
 
+#include <cmath>
 #include <optional>
 #include <string>
+#include <vector>
 
 namespace maskadapt::train {
 
@@ -33,6 +41,21 @@ struct GoalEvalOptions {
   std::uint64_t seed = 1;
 };
 
+/// The motion B a goal cell composes, on which parts (see the file comment).
+struct ComposedMotion {
+  const MotionLibrary* set = nullptr;  ///< B (not owned)
+  PartMask parts;                      ///< the parts B is composed on (a cell's first training mask)
+  double threshold_per_body = 0.1;     ///< m, as evaluate_composition's
+};
+
+/// How much of B the evaluation's frames show on the composed parts.
+struct ComposedMotionMeasure {
+  PartMask parts;
+  double threshold_per_body = 0.1;  ///< m
+  double h_norm = 0;                ///< H_norm(parts | B)
+  double matched = 0;               ///< share of simulated frames within the threshold of some frame of B
+};
+
 struct GoalEvalResult {
   std::string task;
   tasks::TrialCounter trials;
@@ -40,15 +63,26 @@ struct GoalEvalResult {
   double mean_reward = 0;          ///< the goal task's reward, mean over env-steps
   double fall_rate = NAN;          ///< falls / ended episodes
   long long steps = 0;             ///< control steps per env it took
+  std::optional<ComposedMotionMeasure> composed;  ///< when the evaluation was given a ComposedMotion
 };
 
-/// See the file comment. `goal` is copied: the caller's task is left as it was.
+/// See the file comment. `goal` is copied: the caller's task is left as it was. `composed`
+/// (optional): the cell's composed motion, measured beside the success rate.
 template <Simulator Sim, class Policy>
 GoalEvalResult evaluate_goal_task(Sim& sim, const Policy& policy, tasks::AnyGoalTask<Sim> goal,
                                   PartMask mask, tasks::ResetSampler reset, std::optional<FallCriteria> fall,
-                                  const GoalEvalOptions& opt, ThreadPool* pool = nullptr) {
+                                  const GoalEvalOptions& opt, ThreadPool* pool = nullptr,
+                                  std::optional<ComposedMotion> composed = std::nullopt) {
   require(static_cast<bool>(goal), "no goal task to evaluate", {{}, {}, "task"});
   require(opt.min_trials >= 1 && opt.max_steps >= 1, "min_trials and max_steps must be >= 1", {{}, {}, "trials"});
+  if (composed) {
+    require(composed->set != nullptr && composed->set->num_clips() > 0, "no composed motion to measure",
+            {{}, {}, "new_motions"});
+    require(!composed->parts.empty() && composed->parts != PartMask::all(),
+            "the composed parts must be neither empty nor every part", {{}, {}, "masks"});
+    require(std::isfinite(composed->threshold_per_body) && composed->threshold_per_body >= 0,
+            "the composition threshold must be finite and >= 0", {{}, {}, "threshold"});
+  }
   tasks::ImitationTask<Sim> task(sim, std::move(reset), evaluation_task_config(policy, std::move(fall), opt.episode_seconds),
                                  opt.seed, pool);
   require(policy.obs_dim() == task.obs_dim() && policy.action_dim() == task.action_dim() && policy.goal_dim() == goal.goal_dim(),
@@ -68,6 +102,8 @@ GoalEvalResult evaluate_goal_task(Sim& sim, const Policy& policy, tasks::AnyGoal
   GoalEvalResult r;
   r.task = goal.name();
   double reward_sum = 0;
+  const Skeleton& skel = sim.skeleton();
+  std::vector<VectorXf> composed_frames;  // (3·bodies of the composed parts) per simulated frame
   long long t = 0;
   for (; t < opt.max_steps && goal.trials().trials < opt.min_trials; ++t) {
     for (Index e = 0; e < N; ++e) goal.goal(sim, e, goals.col(e));
@@ -76,6 +112,9 @@ GoalEvalResult evaluate_goal_task(Sim& sim, const Policy& policy, tasks::AnyGoal
     else policy.act(x, masks, rng, actions, logp, mu, ws);
     task.step(actions);
     for (Index e = 0; e < N; ++e) reward_sum += tasks::advance_goal(goal, task, e).reward;
+    if (composed)
+      for (Index e = 0; e < N; ++e)
+        composed_frames.push_back(visitation_features(skel, sim.body_states(static_cast<std::size_t>(e)), composed->parts));
   }
   require(goal.trials().trials >= opt.min_trials,
           "only " + std::to_string(goal.trials().trials) + " trials ended within " + std::to_string(opt.max_steps) +
@@ -86,6 +125,14 @@ GoalEvalResult evaluate_goal_task(Sim& sim, const Policy& policy, tasks::AnyGoal
   r.steps = t;
   r.mean_reward = reward_sum / static_cast<double>(t * N);
   r.fall_rate = task.stats().fall_rate();
+  if (composed) {
+    const MatrixXf ref = library_features(*composed->set, composed->parts);  // (3·bodies × frames of B)
+    MatrixXf gen(ref.rows(), static_cast<Index>(composed_frames.size()));
+    for (Index k = 0; k < gen.cols(); ++k) gen.col(k) = composed_frames[static_cast<std::size_t>(k)];
+    const auto v = eval::visitation_entropy(ref, gen, composed->threshold_per_body * std::sqrt(bodies_in(skel, composed->parts)));
+    r.composed = ComposedMotionMeasure{composed->parts, composed->threshold_per_body, v.h_norm,
+                                       static_cast<double>(v.matched_generated) / static_cast<double>(gen.cols())};
+  }
   return r;
 }
 
