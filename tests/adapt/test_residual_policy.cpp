@@ -210,6 +210,61 @@ TEST(ResidualPolicy, GradientsMatchFiniteDifferences) {
   }
 }
 
+// Per-DoF log-probabilities (per-part credit): summed over the rows of a column they are that
+// column's log_prob bit for bit, rows the residual does not move are 0; the per-row gradient with
+// every row's weight equal to its column's is log_prob_mean_grad's, and against central
+// differences of Σ_ij dlogp_ij · log_prob_rows_ij it is the derivative with respect to μ̂.
+TEST(ResidualPolicy, PerRowLogProbsSumToTheLogProbAndTheirGradientIsExact) {
+  auto pol = make_policy(adapt::GainMode::PerDof, 0, nn::Activation::Tanh);
+  pol.residual().mean_net.params().setRandom();
+  pol.residual().mean_net.params() *= 0.3f;
+  const PartElements pe(obs_parts());
+  const MatrixXf obs = MatrixXf::Random(kObs, 4);
+  const std::vector<PartMask> masks = {PartMask::of(BodyPart::LeftArm), PartMask::all(), PartMask::none(),
+                                       PartMask::of(BodyPart::LeftLeg)};
+  adapt::ResidualWorkspace<float> ws;
+  MatrixXf x;
+  pol.build_input(pe, obs, masks, MatrixXf(), x, ws);
+  const MatrixXf actions = MatrixXf::Random(kAct, 4);
+  adapt::ResidualTrainCache<float> c;
+  pol.forward_train(x, masks, c);
+  RowVectorXf lp;
+  pol.log_prob(c, actions, lp);
+  MatrixXf rows;
+  pol.log_prob_rows(c, actions, rows);
+  ASSERT_EQ(rows.rows(), kAct);
+  ASSERT_EQ(rows.cols(), 4);
+  for (Index j = 0; j < 4; ++j) {
+    float sum = 0;
+    for (Index i = 0; i < kAct; ++i) {
+      sum += rows(i, j);
+      if (c.sel(i, j) == 0.0f) {
+        EXPECT_EQ(rows(i, j), 0.0f) << i << "," << j;
+      }
+    }
+    EXPECT_EQ(sum, lp[j]) << "column " << j;
+  }
+  const RowVectorXf dlogp = RowVectorXf::Random(4);
+  MatrixXf dmu_cols, dmu_rows;
+  adapt::ResidualPolicy<float>::log_prob_mean_grad(c, actions, dlogp, dmu_cols);
+  adapt::ResidualPolicy<float>::log_prob_rows_mean_grad(c, actions, dlogp.replicate(kAct, 1), dmu_rows);
+  EXPECT_TRUE(dmu_rows == dmu_cols);
+  // against central differences in μ̂ (double precision of the same formula)
+  const MatrixXf w = MatrixXf::Random(kAct, 4);
+  adapt::ResidualPolicy<float>::log_prob_rows_mean_grad(c, actions, w, dmu_rows);
+  for (Index j = 0; j < 4; ++j)
+    for (Index i = 0; i < kAct; ++i) {
+      if (c.sel(i, j) == 0.0f) {
+        EXPECT_EQ(dmu_rows(i, j), 0.0f);
+        continue;
+      }
+      const double a = actions(i, j), s = std::exp(static_cast<double>(c.log_std(i, j))), h = 1e-4;
+      auto term = [&](double mu) { const double z = (a - mu) / s; return w(i, j) * (-0.5 * z * z); };
+      const double mu = c.mu(i, j);
+      EXPECT_NEAR(dmu_rows(i, j), (term(mu + h) - term(mu - h)) / (2 * h), 1e-3 * (1 + std::abs(dmu_rows(i, j))));
+    }
+}
+
 TEST(ResidualPolicy, RejectsWrongShapes) {
   const auto pol = make_policy(adapt::GainMode::Scalar, 4);
   const PartElements pe(obs_parts());

@@ -625,6 +625,83 @@ TEST(ResidualEval, GoalTaskMeasuresTheComposedMotionBesideSuccess) {
   EXPECT_THROW(run(ComposedMotion{&d.added, arms, std::nan("")}), Error);
 }
 
+// Per-part credit's groups: DoFs whose parts carry equal weights form one group, in order of
+// first appearance; a part without its own weights takes the run's; a part with a weight count
+// other than the run's objective count is refused naming it.
+TEST(PartCredit, GroupsTheDofsByTheirWeights) {
+  std::array<std::vector<double>, kNumParts> w{};
+  w[static_cast<std::size_t>(BodyPart::LeftArm)] = {1, 0};
+  w[static_cast<std::size_t>(BodyPart::RightArm)] = {1, 0};
+  const std::vector<BodyPart> dofs = {BodyPart::Trunk, BodyPart::LeftArm, BodyPart::RightArm, BodyPart::LeftLeg, BodyPart::LeftArm};
+  const PartCredit pc = make_part_credit(w, {0.1, 0.9}, dofs);
+  EXPECT_EQ(pc.group_of_row, (std::vector<Index>{0, 1, 1, 0, 1}));
+  ASSERT_EQ(pc.groups(), 2);
+  EXPECT_EQ(pc.weights(0, 0), 0.1);
+  EXPECT_EQ(pc.weights(0, 1), 0.9);
+  EXPECT_EQ(pc.weights(1, 0), 1.0);
+  EXPECT_EQ(pc.weights(1, 1), 0.0);
+  w[static_cast<std::size_t>(BodyPart::LeftLeg)] = {1, 0, 0};
+  try {
+    (void)make_part_credit(w, {0.1, 0.9}, dofs);
+    ADD_FAILURE() << "three weights for a two-objective run were accepted";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("left_leg"), std::string::npos) << e.what();
+  }
+  EXPECT_NO_THROW((void)make_part_credit(w, {0.1, 0.9}, {BodyPart::Trunk}));  // (no left-leg DoF: not used)
+}
+
+// Per-part credit routes each objective to its parts' DoFs: a location residual that moves the
+// arms and the legs, with per-DoF gains; with the arms credited with nothing (weights 0 0) their
+// gains never move (their DoFs' policy gradient is exactly zero, so Adam leaves them), while the
+// legs' do; without per-part credit the arms' gains move too. AdaptNet refuses per-part credit.
+TEST(ResidualTrainer, PerPartCreditRoutesEachObjectiveToItsPartsDofs) {
+  Data d;
+  auto run = [&](bool credit) {
+    ResidualTrainConfig cfg = tiny_config("location", "ours");
+    cfg.gain = "per_dof";
+    cfg.goal_parts = "lower_body";
+    if (credit) {
+      cfg.part_objective_weights[static_cast<std::size_t>(BodyPart::LeftArm)] = {0, 0};
+      cfg.part_objective_weights[static_cast<std::size_t>(BodyPart::RightArm)] = {0, 0};
+    }
+    TinyWalkerSim sim(4);
+    ResidualSetup<TinyWalkerSim> s;
+    s.masks = {PartMask::parse("arms")};
+    const MotionLibrary* base = &d.base;
+    s.discriminators.push_back({"imitation", 0.5, {}, false,
+                                [base](Rng& r, Index B, MatrixXf& w, MatrixXf&) { w = base->sample_amp_windows(r, static_cast<int>(B)); }, {}});
+    tasks::LocationConfig lc;
+    lc.schedule = {3, 5};
+    s.goal = tasks::LocationTask(lc, 4);
+    ResidualTrainer<TinyWalkerSim> tr(sim, upright(sim.skeleton()), tiny_base(sim.skeleton()), std::move(s), cfg, nullptr,
+                                      tiny_fall(sim.skeleton()));
+    EXPECT_EQ(tr.part_credit_groups(), credit ? 2 : 0);
+    const VectorXf before = tr.policy().gain().params();
+    for (int i = 0; i < 3; ++i) tr.iterate();
+    return std::make_pair(before, VectorXf(tr.policy().gain().params()));
+  };
+  const auto [before_off, off] = run(false);
+  const auto [before_on, on] = run(true);
+  const auto dofs = action_parts(d.skel);
+  int arms = 0, legs = 0;
+  for (std::size_t i = 0; i < dofs.size(); ++i) {
+    const Index r = static_cast<Index>(i);
+    if (dofs[i] == BodyPart::LeftArm || dofs[i] == BodyPart::RightArm) {
+      ++arms;
+      EXPECT_EQ(on[r], before_on[r]) << "arm DoF " << i << " moved under zero credit";
+      EXPECT_NE(off[r], before_off[r]) << "arm DoF " << i << " did not train without per-part credit";
+    } else if (dofs[i] == BodyPart::LeftLeg || dofs[i] == BodyPart::RightLeg) {
+      ++legs;
+      EXPECT_NE(on[r], before_on[r]) << "leg DoF " << i << " did not train";
+    }
+  }
+  EXPECT_GT(arms, 0);
+  EXPECT_GT(legs, 0);
+  ResidualTrainConfig a = tiny_config("location", "adaptnet");
+  a.part_objective_weights[static_cast<std::size_t>(BodyPart::LeftArm)] = {1, 0};
+  EXPECT_THROW(a.validate(), Error);
+}
+
 // AdaptNet through the same trainer (the policy is a template parameter): on a location goal
 // with an imitation discriminator of the base motion, it trains (the adaptation moves, the frozen
 // base does not) and resumes bit-exactly.

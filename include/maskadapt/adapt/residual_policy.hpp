@@ -315,6 +315,30 @@ class ResidualPolicy {
         dmu(i, j) = c.sel(i, j) * (actions(i, j) - c.mu(i, j)) * std::exp(T(-2) * c.log_std(i, j)) * dlogp[j];
   }
 
+  /// The terms of `log_prob` before the sum over rows (A × B): the Gaussian log density of each
+  /// row the residual moves (sel = 1), 0 on the others. Summed over the rows of a column in order,
+  /// they are that column's `log_prob`, bit for bit (per-part credit, train/stage2_learner.hpp).
+  void log_prob_rows(const ResidualTrainCache<T>& c, const MatrixX<T>& actions, MatrixX<T>& out) const {
+    const T half_log_2pi = static_cast<T>(0.5 * std::log(2.0 * std::numbers::pi));
+    out.setZero(c.mu.rows(), c.mu.cols());
+    for (Index j = 0; j < c.mu.cols(); ++j)
+      for (Index i = 0; i < c.mu.rows(); ++i)
+        if (c.sel(i, j) != T(0)) {
+          const T z = (actions(i, j) - c.mu(i, j)) * std::exp(-c.log_std(i, j));
+          out(i, j) = T(-0.5) * z * z - c.log_std(i, j) - half_log_2pi;
+        }
+  }
+
+  /// ∂/∂μ̂ of Σ_ij dlogp(i, j) · log_prob_rows(i, j), (A × B): log_prob_mean_grad with a weight
+  /// per row instead of per column.
+  static void log_prob_rows_mean_grad(const ResidualTrainCache<T>& c, const MatrixX<T>& actions, const MatrixX<T>& dlogp,
+                                      MatrixX<T>& dmu) {
+    dmu.resize(c.mu.rows(), c.mu.cols());
+    for (Index j = 0; j < c.mu.cols(); ++j)
+      for (Index i = 0; i < c.mu.rows(); ++i)
+        dmu(i, j) = c.sel(i, j) * (actions(i, j) - c.mu(i, j)) * std::exp(T(-2) * c.log_std(i, j)) * dlogp(i, j);
+  }
+
   /// Accumulates ∂L/∂θ (residual net, gain) given dmu = ∂L/∂μ̂ (A × B).
   void backward(ResidualTrainCache<T>& c, const MatrixX<T>& dmu) {
     const MatrixX<T> dres = c.sel.cwiseProduct(dmu);  // ∂μ̂/∂μ_ψ = M

@@ -41,6 +41,10 @@ struct ResidualTrainConfig {
   /// A on the rest) instead of from A; 0 = every reset from A (train/motion_sources.hpp)
   double blend_resets = 0.0;
   std::vector<double> objective_weights;  ///< empty: cml 0.5/0.5, tracking 0.5/0.5, ours 1
+  /// Per-part credit (Stage2Learner's PartCredit): the objective weights that the residual's DoFs
+  /// of a body part are credited with, one per objective as objective_weights; an empty entry =
+  /// objective_weights. All empty (the default) = the paper's PPO: one advantage for every DoF.
+  std::array<std::vector<double>, kNumParts> part_objective_weights{};
   std::vector<Index> residual_hidden = {256, 256};
   std::string gain = "scalar";        ///< fixed | scalar | per_dof
   double init_gain = 1.0;
@@ -88,6 +92,13 @@ struct ResidualTrainConfig {
   double term_threshold = 0.05;       ///< … ends the goal episode when the mean tracking reward < this
   std::string generator;              ///< generator checkpoint (CLI)
   std::string base_checkpoint;        ///< stage-1 checkpoint (CLI; recorded for provenance)
+
+  /// Whether any part has its own objective weights (per-part credit on).
+  bool has_part_credit() const {
+    for (const auto& w : part_objective_weights)
+      if (!w.empty()) return true;
+    return false;
+  }
 
   void validate() const {
     rl.validate("residual config");
@@ -145,6 +156,12 @@ struct ResidualTrainConfig {
             "the approach shaping term is the strike task's, not " + task + "'s", {{}, {}, "strike_approach_weight"});
     for (const double w : objective_weights)
       require(std::isfinite(w) && w >= 0, "every objective weight must be finite and ≥ 0", {{}, {}, "objective_weights"});
+    for (std::size_t p = 0; p < part_objective_weights.size(); ++p)
+      for (const double w : part_objective_weights[p])
+        require(std::isfinite(w) && w >= 0, "every objective weight must be finite and ≥ 0",
+                {{}, {}, "part_objective_weights." + std::string(kPartNames[p])});
+    require(method != "adaptnet" || !has_part_credit(),
+            "per-part credit needs a residual's per-DoF log-probabilities; AdaptNet has none", {{}, {}, "part_objective_weights"});
     if (!goal_parts.empty()) {
       (void)PartMask::parse(goal_parts, "goal_parts");
       require(task == "location" || task == "heading" || task == "strike",
@@ -173,6 +190,74 @@ inline std::array<double, kNumParts> part_std_from_json(const nlohmann::json& j,
     s[static_cast<std::size_t>(*part)] = v.get<double>();
   }
   return s;
+}
+
+/// Per-part objective weights as JSON: {"left_arm": [1, 0], …}, the parts set only.
+inline nlohmann::json part_weights_to_json(const std::array<std::vector<double>, kNumParts>& w) {
+  nlohmann::json j = nlohmann::json::object();
+  for (std::size_t p = 0; p < w.size(); ++p)
+    if (!w[p].empty()) j[std::string(kPartNames[p])] = w[p];
+  return j;
+}
+
+/// The inverse of part_weights_to_json; an unknown part name or a non-list of numbers throws naming it.
+inline std::array<std::vector<double>, kNumParts> part_weights_from_json(const nlohmann::json& j, const std::string& file = {}) {
+  std::array<std::vector<double>, kNumParts> w{};
+  if (!j.is_object()) throw Error("expected an object {part: [weights]}", {file, std::nullopt, "part_objective_weights"});
+  for (const auto& [name, v] : j.items()) {
+    const auto part = part_from_name(name);
+    if (!part) throw Error("unknown body part '" + name + "'", {file, std::nullopt, "part_objective_weights"});
+    const std::string field = "part_objective_weights." + name;
+    if (!v.is_array() || v.empty()) throw Error("expected a non-empty list of weights", {file, std::nullopt, field});
+    for (const auto& x : v)
+      if (!x.is_number()) throw Error("a weight must be a number", {file, std::nullopt, field});
+    w[static_cast<std::size_t>(*part)] = v.get<std::vector<double>>();
+  }
+  return w;
+}
+
+/// Parses "PARTS=w1,w2,…" items ("arms=1,0", "lower_body=0.1,0.9"; part and group names as
+/// PartMask::parse) into per-part objective weights; a part named twice, a missing '=', a weight
+/// that is not a finite number ≥ 0, or items with different numbers of weights throw naming `field`.
+inline std::array<std::vector<double>, kNumParts> parse_part_weights(const std::vector<std::string>& items,
+                                                                     const std::string& field) {
+  std::array<std::vector<double>, kNumParts> w{};
+  std::size_t count = 0;
+  for (const std::string& item : items) {
+    const auto eq = item.rfind('=');
+    require(eq != std::string::npos && eq > 0 && eq + 1 < item.size(),
+            "expected PARTS=w1,w2,... (one weight per objective, e.g. arms=1,0), got '" + item + "'", {{}, {}, field});
+    const PartMask m = PartMask::parse(item.substr(0, eq), field);
+    std::vector<double> weights;
+    std::string text = item.substr(eq + 1);
+    std::size_t start = 0;
+    while (true) {
+      const std::size_t comma = text.find(',', start);
+      const std::string one = text.substr(start, comma == std::string::npos ? std::string::npos : comma - start);
+      double v = 0;
+      std::size_t used = 0;
+      try {
+        v = std::stod(one, &used);
+      } catch (const std::exception&) {
+        used = 0;  // (not a number: refused below)
+      }
+      require(!one.empty() && used == one.size(), "weight '" + one + "' in '" + item + "' is not a number", {{}, {}, field});
+      require(std::isfinite(v) && v >= 0, "a weight must be finite and >= 0, got '" + item + "'", {{}, {}, field});
+      weights.push_back(v);
+      if (comma == std::string::npos) break;
+      start = comma + 1;
+    }
+    require(count == 0 || weights.size() == count,
+            "every item needs the same number of weights (one per objective), got '" + item + "'", {{}, {}, field});
+    count = weights.size();
+    for (int p = 0; p < kNumParts; ++p)
+      if (m.has(static_cast<BodyPart>(p))) {
+        require(w[static_cast<std::size_t>(p)].empty(), std::string(kPartNames[static_cast<std::size_t>(p)]) + " is given twice",
+                {{}, {}, field});
+        w[static_cast<std::size_t>(p)] = weights;
+      }
+  }
+  return w;
 }
 
 /// Parses "PARTS=σ" items ("arms=0.15", "left_leg,right_leg=0.05"; part and group names as
@@ -215,6 +300,7 @@ inline nlohmann::json to_json(const ResidualTrainConfig& c) {
           {"negative_fraction", c.negative_fraction},
           {"blend_resets", c.blend_resets},
           {"objective_weights", c.objective_weights},
+          {"part_objective_weights", part_weights_to_json(c.part_objective_weights)},
           {"residual_hidden", c.residual_hidden},
           {"gain", c.gain},
           {"init_gain", c.init_gain},
@@ -252,6 +338,8 @@ inline ResidualTrainConfig residual_config_from_json(const nlohmann::json& j, co
     c.negative_fraction = j.at("negative_fraction");
     c.blend_resets = j.value("blend_resets", 0.0);  // (absent before it was recorded: every reset from A)
     c.objective_weights = j.at("objective_weights").get<std::vector<double>>();
+    // (absent before per-part credit existed: off)
+    c.part_objective_weights = part_weights_from_json(j.value("part_objective_weights", nlohmann::json::object()), file);
     c.residual_hidden = j.at("residual_hidden").get<std::vector<Index>>();
     c.gain = j.at("gain");
     c.init_gain = j.at("init_gain");

@@ -140,6 +140,8 @@ class ResidualTrainer {
     for (const auto& d : setup_.discriminators) weights_.push_back(d.weight);
     if (setup_.goal) weights_.push_back(setup_.goal_weight);
     learner_ = Stage2Learner<Policy>(critic_dim(), K_, cfg_.rl, activation, init);
+    if (cfg_.has_part_credit())  // per-part credit: each part's DoFs with its own objective weights
+      learner_.set_part_credit(make_part_credit(cfg_.part_objective_weights, weights_, action_parts(sim.skeleton())));
     const Index W = task_.amp_dim();
     discs_ = RewardDiscriminators(setup_.discriminators, W, cfg_.rl, activation, setup_.negative_fraction, init);
     rl::RolloutSpec spec;
@@ -166,6 +168,8 @@ class ResidualTrainer {
   const BaseTrainConfig& config() const { return cfg_.rl; }
   const ResidualTrainConfig& residual_config() const { return cfg_; }
   const Policy& policy() const { return policy_; }
+  /// Groups of per-part credit (0: off, one advantage for every DoF).
+  Index part_credit_groups() const { return learner_.part_credit().enabled() ? learner_.part_credit().groups() : 0; }
   /// The last iteration's rollout (actions: the composite â, base units).
   const rl::RolloutBuffer<float>& rollout() const { return buf_; }
   tasks::ImitationTask<Sim>& task() { return task_; }

@@ -9,9 +9,21 @@
 /// PopArt rescales the critic's last layer to the new return statistics, then the critic regresses
 /// the normalised returns (unclipped); the action-bound penalty acts on the PD targets beyond ±π rad
 /// exactly as in stage 1; the adaptive learning-rate schedule (rsl_rl's KL rule) as in stage 1.
+///
+/// Per-part credit (optional, PartCredit; issue 39): the DoFs are split into groups, each with its
+/// own objective weights, e.g. the arms credited with the composition discriminator alone and the
+/// legs with the goal. The Gaussian factorises over DoFs, so the policy gradient of the sum of the
+/// objectives splits into one term per group: group g's log-probability (its DoFs' terms) times
+/// its own advantage A_g = Σ_k W_gk Â_k. Each group gets the clipped surrogate on its own ratio
+///   L = −Σ_g mean_i min(ρ_gi A_gi, clip(ρ_gi, 1 ± ε) A_gi),   ρ_gi = exp(log π_g,new − log π_g,old),
+/// and the approximate KL is the sum of the groups' (the factors are independent). The groups'
+/// old log-probabilities are recomputed at the start of the update under the policy that
+/// collected (its normaliser as updated during collection). With one group whose weights are
+/// the objective weights this is the joint PPO step, up to that recomputation.
 #include <maskadapt/core/checkpoint.hpp>
 #include <maskadapt/core/error.hpp>
 #include <maskadapt/core/rng.hpp>
+#include <maskadapt/mask/parts.hpp>
 #include <maskadapt/nn/adam.hpp>
 #include <maskadapt/nn/popart.hpp>
 #include <maskadapt/rl/actor_critic.hpp>
@@ -25,6 +37,7 @@
 #include <maskadapt/train/stage2_policy.hpp>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <span>
 #include <string>
@@ -32,8 +45,48 @@
 
 namespace maskadapt::train {
 
+/// Per-part credit of a stage-2 PPO step (see the file comment).
+struct PartCredit {
+  std::vector<Index> group_of_row;  ///< (action_dim) the group of each action row (DoF)
+  MatrixXd weights;                 ///< (groups × objectives) each group's objective weights
+  bool enabled() const { return !group_of_row.empty(); }
+  Index groups() const { return weights.rows(); }
+};
+
+/// The groups of per-part credit: each DoF (action row, part `dof_parts[i]`) takes its part's
+/// weights, or `default_weights` where its part has none; DoFs with equal weights form one group
+/// (in order of first appearance). Every weight list must have one weight per objective.
+inline PartCredit make_part_credit(const std::array<std::vector<double>, kNumParts>& part_weights,
+                                   const std::vector<double>& default_weights, const std::vector<BodyPart>& dof_parts) {
+  const std::size_t K = default_weights.size();
+  std::vector<std::vector<double>> groups;
+  PartCredit pc;
+  for (const BodyPart part : dof_parts) {
+    const auto& own = part_weights[static_cast<std::size_t>(part)];
+    require(own.empty() || own.size() == K,
+            std::string(part_name(part)) + " has " + std::to_string(own.size()) + " objective weights; this run has " +
+                std::to_string(K) + " objective(s)",
+            {{}, {}, "part_objective_weights"});
+    const std::vector<double>& w = own.empty() ? default_weights : own;
+    auto it = std::find(groups.begin(), groups.end(), w);
+    if (it == groups.end()) it = groups.insert(groups.end(), w);
+    pc.group_of_row.push_back(static_cast<Index>(it - groups.begin()));
+  }
+  pc.weights.resize(static_cast<Index>(groups.size()), static_cast<Index>(K));
+  for (std::size_t g = 0; g < groups.size(); ++g)
+    for (std::size_t k = 0; k < K; ++k) pc.weights(static_cast<Index>(g), static_cast<Index>(k)) = groups[g][k];
+  return pc;
+}
+
 template <Stage2Policy Policy>
 class Stage2Learner {
+  /// Policies with per-DoF log-probabilities (the residual) support per-part credit.
+  static constexpr bool kHasRows = requires(const Policy& p, const typename Stage2Types<Policy>::Cache& c, const MatrixXf& a,
+                                            MatrixXf& o) {
+    p.log_prob_rows(c, a, o);
+    Policy::log_prob_rows_mean_grad(c, a, a, o);
+  };
+
  public:
   Stage2Learner() = default;
   /// A critic over `critic_dim` inputs with `num_objectives` outputs (one per reward row).
@@ -51,6 +104,19 @@ class Stage2Learner {
     actor_opt_ = nn::Adam<float>({cfg.ppo.actor_lr, 0.9, 0.999, 1e-8, 0.0, false, cfg.ppo.max_grad_norm});
     critic_opt_ = nn::Adam<float>({cfg.ppo.critic_lr, 0.9, 0.999, 1e-8, 0.0, false, cfg.ppo.max_grad_norm});
   }
+
+  /// Turns per-part credit on (see the file comment); `pc.weights` must have one column per
+  /// objective. Refused for a policy without per-DoF log-probabilities (AdaptNet).
+  void set_part_credit(PartCredit pc) {
+    require(kHasRows, "per-part credit needs a residual's per-DoF log-probabilities", {{}, {}, "part_objective_weights"});
+    require(pc.enabled() && pc.weights.cols() == K_ && pc.weights.rows() >= 1,
+            "per-part credit needs a group per DoF and one weight per objective (" + std::to_string(K_) + ")",
+            {{}, {}, "part_objective_weights"});
+    for (const Index g : pc.group_of_row)
+      require(g >= 0 && g < pc.groups(), "a DoF's group is out of range", {{}, {}, "part_objective_weights"});
+    credit_ = std::move(pc);
+  }
+  const PartCredit& part_credit() const { return credit_; }
 
   rl::Critic<float>& critic() { return critic_; }
   const rl::Critic<float>& critic() const { return critic_; }
@@ -79,6 +145,12 @@ class Stage2Learner {
     else rl::normalize_rows(adv_k);
     adv_.setZero(buf.size());
     for (Index k = 0; k < K_; ++k) adv_ += static_cast<float>(weights[static_cast<std::size_t>(k)]) * adv_k.row(k);
+    if (credit_.enabled()) {
+      require(static_cast<Index>(credit_.group_of_row.size()) == policy.action_dim(), "per-part credit: one group per DoF",
+              {{}, {}, "part_objective_weights"});
+      adv_g_ = credit_.weights.cast<float>() * adv_k;  // (groups × n)
+      old_group_log_probs(policy, buf, ppo);
+    }
     if (dist) update_popart_over_ranks(*ranks.comm, buf.returns);
     else popart_.update(buf.returns, critic_.net);
     ret_n_.resize(K_, buf.size());
@@ -179,10 +251,15 @@ class Stage2Learner {
     }
     policy.zero_grad();
     const MatrixXf& mu = policy.forward_train(x_, ms_, cache_);
-    policy.log_prob(cache_, act_, lp_new_);
-    const auto sur = rl::clipped_surrogate<float>(lp_new_, lp_old_, a_mb_, ppo.clip, dlogp_);
-    if (scaled) dlogp_ *= static_cast<float>(share);
-    Policy::log_prob_mean_grad(cache_, act_, dlogp_, dmu_);
+    rl::SurrogateResult sur;
+    if (credit_.enabled()) {
+      if constexpr (kHasRows) sur = part_credit_surrogate(policy, idx, ppo, scaled ? share : 1.0);
+    } else {
+      policy.log_prob(cache_, act_, lp_new_);
+      sur = rl::clipped_surrogate<float>(lp_new_, lp_old_, a_mb_, ppo.clip, dlogp_);
+      if (scaled) dlogp_ *= static_cast<float>(share);
+      Policy::log_prob_mean_grad(cache_, act_, dlogp_, dmu_);
+    }
     // action-bound penalty on the PD targets beyond ±π rad, as in stage 1 (target = offset +
     // scale ⊙ μ̂, so ∂/∂μ̂ carries a factor scale; the identity's target is μ̂ itself); a mean
     // over the whole minibatch
@@ -202,6 +279,64 @@ class Stage2Learner {
     dv_ *= static_cast<float>(scaled ? ppo.critic_weight * share : ppo.critic_weight);
     critic_.net.backward(critic_cache_, dv_, critic_.net.grads());
     return {sur.loss, vl, sur.approx_kl, sur.clip_frac};
+  }
+
+  /// Group sums (groups × B) of per-DoF log-probabilities `rows` (A × B), each column's rows added
+  /// in order (so one group holding every DoF gives `log_prob` bit for bit).
+  void group_sums(const MatrixXf& rows, MatrixXf& out) const {
+    out.setZero(credit_.groups(), rows.cols());
+    for (Index j = 0; j < rows.cols(); ++j)
+      for (Index i = 0; i < rows.rows(); ++i) out(credit_.group_of_row[static_cast<std::size_t>(i)], j) += rows(i, j);
+  }
+
+  /// lp_old_g_ (groups × n): every sample's group log-probabilities under the current policy (the
+  /// one that collected `buf`), in chunks of a minibatch.
+  void old_group_log_probs(Policy& policy, const rl::RolloutBuffer<float>& buf, const PpoConfig& ppo) {
+    if constexpr (kHasRows) {
+      const Index n = buf.size(), chunk = std::max<Index>(1, ppo.minibatch_size);
+      lp_old_g_.resize(credit_.groups(), n);
+      std::vector<Index> idx;
+      for (Index start = 0; start < n; start += chunk) {
+        const Index b = std::min(chunk, n - start);
+        idx.resize(static_cast<std::size_t>(b));
+        for (Index j = 0; j < b; ++j) idx[static_cast<std::size_t>(j)] = start + j;
+        rl::gather_columns(buf.policy_input, idx, x_);
+        rl::gather_columns(buf.actions, idx, act_);
+        ms_.resize(static_cast<std::size_t>(b));
+        for (Index j = 0; j < b; ++j) ms_[static_cast<std::size_t>(j)] = buf.masks[static_cast<std::size_t>(start + j)];
+        (void)policy.forward_train(x_, ms_, cache_);
+        policy.log_prob_rows(cache_, act_, rows_);
+        group_sums(rows_, gsum_);
+        lp_old_g_.middleCols(start, b) = gsum_;
+      }
+    }
+  }
+
+  /// The per-part-credit surrogate of the minibatch `idx` (x_, act_ and the cache hold its forward
+  /// pass): the groups' clipped surrogates summed, their ∂/∂μ̂ into dmu_ (× share).
+  rl::SurrogateResult part_credit_surrogate(const Policy& policy, const std::vector<Index>& idx, const PpoConfig& ppo,
+                                            double share) {
+    const Index B = static_cast<Index>(idx.size()), G = credit_.groups();
+    policy.log_prob_rows(cache_, act_, rows_);
+    group_sums(rows_, gsum_);
+    rl::gather_columns(lp_old_g_, idx, lp_old_gmb_);
+    rl::gather_columns(adv_g_, idx, adv_gmb_);
+    dlogp_rows_.resize(rows_.rows(), B);
+    rl::SurrogateResult total;
+    for (Index g = 0; g < G; ++g) {
+      lp_new_ = gsum_.row(g);
+      lp_old_ = lp_old_gmb_.row(g);
+      a_mb_ = adv_gmb_.row(g);
+      const auto sur = rl::clipped_surrogate<float>(lp_new_, lp_old_, a_mb_, ppo.clip, dlogp_);
+      total.loss += sur.loss;
+      total.approx_kl += sur.approx_kl;  // KL of independent factors adds up
+      total.clip_frac += sur.clip_frac / static_cast<double>(G);
+      for (Index i = 0; i < rows_.rows(); ++i)
+        if (credit_.group_of_row[static_cast<std::size_t>(i)] == g) dlogp_rows_.row(i) = dlogp_;
+    }
+    if (share != 1.0) dlogp_rows_ *= static_cast<float>(share);
+    Policy::log_prob_rows_mean_grad(cache_, act_, dlogp_rows_, dmu_);
+    return total;
   }
 
   /// Sums the actor's (trainable blocks) and critic's gradients over ranks (one all-reduce) and
@@ -246,6 +381,10 @@ class Stage2Learner {
   // update's buffers (sized on the first update, then reused)
   RowVectorX<float> adv_, lp_old_, a_mb_, lp_new_, dlogp_;
   MatrixXf ret_n_, x_, act_, cin_, norm_cin_, dmu_, dv_, target_, vold_;
+  PartCredit credit_;  ///< per-part credit (off unless set)
+  // per-part credit's buffers: advantages and old log-probabilities per group (groups × n), and a
+  // minibatch's per-DoF log-probabilities (A × B), group sums and gathered columns (groups × B)
+  MatrixXf adv_g_, lp_old_g_, rows_, gsum_, lp_old_gmb_, adv_gmb_, dlogp_rows_;
   std::vector<PartMask> ms_;
   std::vector<Index> my_idx_;   ///< this rank's columns of the current minibatch
   std::vector<float> reduce_f_; ///< gradients of one minibatch, packed for the all-reduce
