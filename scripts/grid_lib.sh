@@ -28,6 +28,10 @@ say() {
 # train_or_resume DIR ITERATIONS TRAIN_RESIDUAL_ARGS... — trains the cell in DIR to ITERATIONS: a
 # new run with the given arguments, or, when DIR already holds a checkpoint, that run continued
 # (--resume, bit-exact; the arguments are then the checkpoint's own).
+#
+# A run stopped by a signal (SIGINT / SIGTERM) checkpoints and exits 0 before its budget, so the
+# run's log is checked: if its last iteration is short of ITERATIONS, this fails (exit 3) and the
+# caller evaluates nothing — an evaluation file named for ITERATIONS must hold that iteration's policy.
 train_or_resume() {
   local dir="$1" iterations="$2"
   shift 2
@@ -35,6 +39,13 @@ train_or_resume() {
     cmd "$BIN" train-residual --resume "$dir/checkpoint.bin" --iterations "$iterations" --out "$dir"
   else
     cmd "$BIN" train-residual "$@" --iterations "$iterations" --out "$dir"
+  fi
+  [[ "$DRY_RUN" == 1 ]] && return 0
+  local last
+  last=$(tail -n 1 "$dir/log.jsonl" 2>/dev/null | grep -o '"iteration":[0-9]*' | cut -d: -f2)
+  if [[ "${last:-0}" -lt "$iterations" ]]; then
+    echo "train_or_resume: $dir stopped at iteration ${last:-0} of $iterations (a signal?); not evaluated — rerun to resume" >&2
+    return 3
   fi
 }
 
@@ -57,4 +68,24 @@ goal_cell_args() {
     strike) echo "--new-motion $2/bandai/actions/dataset-1_punch_normal_001.bvh $2/bandai/actions/dataset-1_punch_normal_002.bvh --masks arms --goal-parts lower_body" ;;
     *) echo "goal_cell_args: unknown task '$1' (location, heading or strike)" >&2; return 2 ;;
   esac
+}
+
+# paper_formulation_args TASK METHOD COMPOSES [FLAGS...] — the train-residual flags that give a goal-task
+# run the paper's rewards (train/goal_recipe.hpp, preset "paper") at the cpu preset's settings, since
+# train-residual's default (--preset cpu) is the stage-2 recipe: the paper's objective weights (ours
+# composing B: 1 0.5; CML-style / AdaptNet composing B: 0.5 0.5 0.5; without B: 0.5 0.5) and no
+# shaping term. COMPOSES is 1 when the run composes a motion B. Flags already among FLAGS (a
+# variant's own) are left out, so that a variant changes one thing on top of the paper's formulation.
+paper_formulation_args() {
+  local task=$1 method=$2 composes=$3
+  shift 3
+  local given=" $* " out=""
+  if [[ $given != *" --objective-weights "* ]]; then
+    if [[ $composes == 1 && $method == ours ]]; then out="--objective-weights 1 0.5"
+    elif [[ $composes == 1 ]]; then out="--objective-weights 0.5 0.5 0.5"
+    else out="--objective-weights 0.5 0.5"; fi
+  fi
+  if [[ $task == location && $given != *" --location-facing-weight "* ]]; then out="$out --location-facing-weight 0"; fi
+  if [[ $task == strike && $given != *" --strike-approach-weight "* ]]; then out="$out --strike-approach-weight 0"; fi
+  echo "$out"
 }

@@ -11,6 +11,8 @@
 # runs: ITERATIONS=4800 scripts/table3_grid.sh. Stop it at any time (Ctrl-C checkpoints first).
 #
 # Motions composed (B), masks and goal parts of each task: goal_cell_args in scripts/grid_lib.sh.
+# FORMULATION=recipe (the default): train-residual's cpu preset, the stage-2 recipe of issue 39
+# (train/goal_recipe.hpp); FORMULATION=paper: the paper's goal rewards (the shipped models/table3 cells).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 source scripts/grid_lib.sh
@@ -25,6 +27,8 @@ TRIALS=${TRIALS:-200}
 EVAL_SEED=${EVAL_SEED:-1001}   # no training run uses it
 EVAL_ENVS=${EVAL_ENVS:-16}
 DATA=${MASKADAPT_DATA_DIR:-../shared/data}/motions
+FORMULATION=${FORMULATION:-recipe}
+[[ "$FORMULATION" == paper || "$FORMULATION" == recipe ]] || { echo "table3_grid.sh: FORMULATION must be paper or recipe" >&2; exit 2; }
 CELLS=${CELLS:-"location_ours location_cml location_adaptnet heading_ours heading_cml heading_adaptnet strike_ours strike_cml strike_adaptnet"}
 
 for cell in $CELLS; do
@@ -37,6 +41,7 @@ for cell in $CELLS; do
   # shellcheck disable=SC2046
   train_or_resume "$dir" "$ITERATIONS" --task "$task" --method "$method" --base "$BASE" \
     $(goal_cell_args "$task" "$DATA") \
+    $([[ "$FORMULATION" == paper ]] && paper_formulation_args "$task" "$method" 1) \
     --threads "$THREADS" --seed "$SEED"
   cmd "$BIN" eval-residual "$dir/checkpoint.bin" --task "$task" --envs "$EVAL_ENVS" --trials "$TRIALS" --seed "$EVAL_SEED" --out "$result"
 done

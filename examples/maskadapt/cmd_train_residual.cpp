@@ -19,6 +19,7 @@
 #include <maskadapt/tracking/text_pool.hpp>
 #include <maskadapt/train/motion_sources.hpp>
 #include <maskadapt/train/goal_eval.hpp>
+#include <maskadapt/train/goal_recipe.hpp>
 #include <maskadapt/train/residual_eval.hpp>
 #include <maskadapt/tasks/heading.hpp>
 #include <maskadapt/tasks/location.hpp>
@@ -60,6 +61,7 @@ struct Args {
          location_arrive_distance = -1, location_reach_bonus = -1;
   std::vector<double> location_distance;  ///< [min, max] (m)
   std::vector<std::string> part_std;      ///< "PARTS=σ" items
+  std::vector<std::string> part_objective_weights;  ///< "PARTS=w1,w2,…" items
   std::vector<Index> hidden;
   std::vector<std::string> composition_only, tracking_only;  ///< such flags given on the command line
 };
@@ -276,8 +278,16 @@ void run_train_residual(const Args& a) {
     if (a.location_arrive_distance >= 0) c.location_arrive_distance = a.location_arrive_distance;
     if (a.location_reach_bonus >= 0) c.location_reach_bonus = a.location_reach_bonus;
     if (!a.part_std.empty()) c.residual_part_std = parse_part_std(a.part_std, "--part-std");
+    if (!a.part_objective_weights.empty())
+      c.part_objective_weights = parse_part_weights(a.part_objective_weights, "--part-objective-weights");
     if (a.strike_approach_weight >= 0) c.strike_approach_weight = a.strike_approach_weight;
     if (!a.objective_weights.empty()) c.objective_weights = a.objective_weights;
+    if (is_goal_task(c.task)) {  // the preset's goal rewards where no flag says otherwise (train/goal_recipe.hpp)
+      const GoalRewards g = goal_rewards(a.preset.empty() ? "cpu" : a.preset, c.task, c.method, !c.new_motions.empty());
+      if (a.objective_weights.empty()) c.objective_weights = g.objective_weights;
+      if (a.location_facing_weight < 0) c.location_facing_weight = g.location_facing_weight;
+      if (a.strike_approach_weight < 0) c.strike_approach_weight = g.strike_approach_weight;
+    }
     require(c.method == "scratch" || !a.base.empty(), "a base checkpoint is needed (or --method scratch)", {{}, {}, "--base"});
     if (c.method != "scratch") {
       // The frozen base's architecture and, unless --motions, its motion set A come from its checkpoint.
@@ -321,7 +331,7 @@ void run_train_residual(const Args& a) {
                               {"location_distance", "--location-distance"}, {"location_divergence", "--location-divergence"},
                               {"location_arrive_distance", "--location-arrive-distance"},
                               {"location_reach_bonus", "--location-reach-bonus"},
-                              {"residual_part_std", "--part-std"}});
+                              {"residual_part_std", "--part-std"}, {"part_objective_weights", "--part-objective-weights"}});
   require(c.task != "composition" || !c.new_motions.empty(), "composition needs --new-motion", {{}, {}, "--new-motion"});
 
   const MujocoCharacter& character = mujoco_character(c.rl.env.character, "env.character");
@@ -379,6 +389,11 @@ void run_train_residual(const Args& a) {
                 " discriminator(s)" + (setup.goal ? " and the goal task" : "") + "), so it needs that many weights, not " +
                 std::to_string(c.objective_weights.size()),
             {{}, {}, "--objective-weights"});
+    for (std::size_t p = 0; p < c.part_objective_weights.size(); ++p)
+      require(c.part_objective_weights[p].empty() || c.part_objective_weights[p].size() == objectives,
+              std::string(kPartNames[p]) + " has " + std::to_string(c.part_objective_weights[p].size()) +
+                  " weights; this run has " + std::to_string(objectives) + " objective(s)",
+              {{}, {}, "--part-objective-weights"});
   }
   out << "train-residual: " << character.name << ", task " << c.task << ", method " << c.method << ", masks";
   for (const auto& m : setup.masks) out << " " << m.to_string();
@@ -773,6 +788,10 @@ const bool registered = maskadapt::cli::register_command([](CLI::App& app) {
   keep(c->add_option("--part-std", a->part_std,
                      "σ of the residual's exploration per body part, PARTS=σ items (e.g. arms=0.15 lower_body=0.05; "
                      "default: --residual-std on every part)"));
+  keep(c->add_option("--part-objective-weights", a->part_objective_weights,
+                     "per-part credit: the objective weights each part's DoFs are credited with, PARTS=w1,w2,... items, one "
+                     "weight per objective as --objective-weights (e.g. arms=1,0 lower_body=0.1,0.9: the arms learn from the "
+                     "composition discriminator alone, the legs mostly from the goal; default: every DoF with --objective-weights)"));
   keep(c->add_option("--location-distance", a->location_distance,
                      "location, training only: MIN MAX distance of the drawn targets (m; default 1 5, as evaluated)"))
       ->expected(2)
@@ -799,7 +818,10 @@ const bool registered = maskadapt::cli::register_command([](CLI::App& app) {
                      "composition: share of resets from the part-wise blends of A and B (B's pose on the adapted "
                      "parts; default 0: every reset from A)"))
       ->check(probability());
-  CLI::Option* preset = keep(c->add_option("--preset", a->preset, "cpu | paper"))->check(one_of({"cpu", "paper"}));
+  CLI::Option* preset = keep(c->add_option("--preset", a->preset,
+                                                "cpu (default): the CPU settings and, on a goal task, the stage-2 recipe's rewards "
+                                                "(goal weighted 0.9, location facing 0.5, strike approach 0.4) | paper: the paper's "
+                                                "settings and formulation; explicit reward flags win over either"))->check(one_of({"cpu", "paper"}));
   keep(c->add_option("--envs", a->envs, "parallel envs"))->transform(integer_in(1, kMaxEnvs));
   keep(c->add_option("--threads", a->threads, "threads for simulation and network passes (0 = all cores)"))
       ->transform(integer_in(0, kMaxThreads));

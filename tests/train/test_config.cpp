@@ -1,4 +1,5 @@
 #include <maskadapt/train/config.hpp>
+#include <maskadapt/train/goal_recipe.hpp>
 
 #include "../build_paths.hpp"
 
@@ -195,4 +196,45 @@ TEST(TrainConfig, ShippedConfigsParse) {
     ++n;
   }
   EXPECT_GE(n, 2);
+}
+
+// The goal tasks' rewards per preset (train/goal_recipe.hpp): the recipe weighs the goal 0.9 and the
+// discriminators 0.1 together, with the facing term on location and the approach on strike only;
+// the paper's formulation is ours' composition 1, every other discriminator 0.5 and the goal 0.5,
+// with no shaping. One weight per objective: the discriminators, then the goal.
+TEST(GoalRecipe, PresetsGiveTheRecipeOrThePapersGoalRewards) {
+  const GoalRewards loc = goal_rewards("cpu", "location", "ours", true);
+  EXPECT_EQ(loc.objective_weights, (std::vector<double>{0.1, 0.9}));
+  EXPECT_EQ(loc.location_facing_weight, 0.5);
+  EXPECT_EQ(loc.strike_approach_weight, 0.0);
+  const GoalRewards strike_cml = goal_rewards("cpu", "strike", "cml", true);
+  EXPECT_EQ(strike_cml.objective_weights, (std::vector<double>{0.05, 0.05, 0.9}));
+  EXPECT_EQ(strike_cml.location_facing_weight, 0.0);
+  EXPECT_EQ(strike_cml.strike_approach_weight, 0.4);
+  const GoalRewards heading_adaptnet = goal_rewards("cpu", "heading", "adaptnet", false);  // imitating A only
+  EXPECT_EQ(heading_adaptnet.objective_weights, (std::vector<double>{0.1, 0.9}));
+  EXPECT_EQ(heading_adaptnet.location_facing_weight + heading_adaptnet.strike_approach_weight, 0.0);
+
+  EXPECT_EQ(goal_rewards("paper", "location", "ours", true).objective_weights, (std::vector<double>{1.0, 0.5}));
+  EXPECT_EQ(goal_rewards("paper", "heading", "ours", false).objective_weights, (std::vector<double>{0.5, 0.5}));
+  const GoalRewards paper_cml = goal_rewards("paper", "strike", "cml", true);
+  EXPECT_EQ(paper_cml.objective_weights, (std::vector<double>{0.5, 0.5, 0.5}));
+  EXPECT_EQ(paper_cml.strike_approach_weight, 0.0);
+  EXPECT_EQ(goal_rewards("paper", "location", "ours", true).location_facing_weight, 0.0);
+
+  EXPECT_EQ(goal_task_discriminators("ours", true), 1u);
+  EXPECT_EQ(goal_task_discriminators("adaptnet", true), 2u);
+  EXPECT_EQ(goal_task_discriminators("cml", false), 1u);
+  try {
+    (void)goal_rewards("gpu", "location", "ours", true);
+    ADD_FAILURE() << "an unknown preset was accepted";
+  } catch (const Error& e) {
+    EXPECT_EQ(e.context().field, "--preset");
+  }
+  try {
+    (void)goal_rewards("cpu", "composition", "ours", true);
+    ADD_FAILURE() << "a task that is not a goal task was accepted";
+  } catch (const Error& e) {
+    EXPECT_EQ(e.context().field, "--task");
+  }
 }
