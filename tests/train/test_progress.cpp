@@ -6,6 +6,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <vector>
 
 using namespace maskadapt;
 using namespace maskadapt::train;
@@ -74,6 +75,38 @@ TEST(TrainProgress, JsonlLogWritesOneParsableObjectPerLine) {
   }
   EXPECT_EQ(n, 4);
   std::filesystem::remove(path);
+}
+
+// A resumed run first cuts its log back to the checkpoint's iteration: the lines of iterations a
+// killed run logged after its last checkpoint (which the resumed run repeats) and an unfinished
+// last line are dropped; lines without an iteration stay; a missing log is left missing.
+TEST(TrainProgress, ResumedLogDropsTheIterationsItWillRepeat) {
+  const auto path = (std::filesystem::temp_directory_path() / "maskadapt_log_resume_test.jsonl").string();
+  {
+    std::ofstream out(path, std::ios::trunc);
+    out << R"({"note":"header"})" << '\n';
+    for (int i = 1; i <= 7; ++i) out << R"({"iteration":)" << i << "}\n";
+    out << R"({"iteration":8,"samp)";  // killed in mid-write
+  }
+  drop_log_lines_after(path, 5);
+  {
+    JsonlLog log(path, /*append=*/true);
+    log.write(nlohmann::json{{"iteration", 6}});
+  }
+  std::ifstream in(path);
+  std::string line;
+  std::vector<long long> its;
+  int without = 0;
+  while (std::getline(in, line)) {
+    const auto j = nlohmann::json::parse(line);
+    if (j.contains("iteration")) its.push_back(j["iteration"].get<long long>());
+    else ++without;
+  }
+  EXPECT_EQ(its, (std::vector<long long>{1, 2, 3, 4, 5, 6}));
+  EXPECT_EQ(without, 1);
+  std::filesystem::remove(path);
+  EXPECT_NO_THROW(drop_log_lines_after(path, 5));
+  EXPECT_FALSE(std::filesystem::exists(path));
 }
 
 TEST(TrainProgress, FinishIterationStatsDerivesTheEpisodeColumns) {

@@ -10,9 +10,11 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <fstream>
 #include <map>
 #include <string>
+#include <vector>
 
 namespace maskadapt::train {
 
@@ -140,6 +142,45 @@ inline nlohmann::json to_json(const IterationStats& s) {
           {"eta_s", num(s.eta_s)}};
   for (const auto& [k, v] : s.extra) j[k] = num(v);
   return j;
+}
+
+/// Makes the log at `path` end at `iteration` before a resumed run appends to it: a run killed
+/// after its last checkpoint (SIGKILL, a session ending) logged iterations that the resumed run
+/// repeats, which would otherwise appear twice. Keeps every line whose "iteration" is ≤
+/// `iteration` (and lines without one), drops the others and an unfinished last line (a crash in
+/// mid-write), and rewrites the file atomically (temporary file, then rename). A missing file is
+/// left missing; a file that cannot be read or written throws naming it.
+inline void drop_log_lines_after(const std::string& path, long long iteration) {
+  namespace fs = std::filesystem;
+  if (!fs::exists(path)) return;
+  std::ifstream in(path);
+  if (!in) throw Error("cannot read log file", {path, std::nullopt, {}});
+  std::vector<std::string> kept;
+  std::string line;
+  bool dropped = false;
+  while (std::getline(in, line)) {
+    const bool last = in.peek() == std::char_traits<char>::eof();
+    const nlohmann::json j = nlohmann::json::parse(line, nullptr, /*allow_exceptions=*/false);
+    if (j.is_discarded()) {
+      if (last) { dropped = true; continue; }  // an unfinished last line
+      kept.push_back(line);
+      continue;
+    }
+    if (j.is_object() && j.contains("iteration") && j["iteration"].is_number() && j["iteration"].get<long long>() > iteration) {
+      dropped = true;
+      continue;
+    }
+    kept.push_back(line);
+  }
+  if (!dropped) return;
+  const std::string tmp = path + ".tmp";
+  {
+    std::ofstream out(tmp, std::ios::trunc);
+    for (const auto& l : kept) out << l << '\n';
+    out.flush();
+    if (!out) throw Error("failed writing log file", {tmp, std::nullopt, {}});
+  }
+  fs::rename(tmp, path);
 }
 
 /// Appends one JSON object per line; flushed after every line so a crash loses nothing.

@@ -51,6 +51,7 @@ IterationStats run_training(Trainer& trainer, const RunOptions& opt = {}) {
   if (root) {
     fs::create_directories(out);
     save_config(cfg, (out / "config.json").string());
+    if (opt.append_log) drop_log_lines_after((out / "log.jsonl").string(), trainer.iteration());  // (repeated iterations)
     log = JsonlLog((out / "log.jsonl").string(), opt.append_log);
   }
   std::ostream* progress = root ? opt.progress : nullptr;
