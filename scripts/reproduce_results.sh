@@ -408,12 +408,28 @@ recipe_long() {
   join
 }
 # recipe_chunks TASK VARIANT FLAGS… — seed 1, one thread, chunks of 1,500 iterations (the page has heading
-# to 3,000 and strike to 6,000; the chunks after that are the next steps)
+# to 3,000 and strike to 9,000)
 recipe_chunks() {
   local task=$1 variant=$2 it
   shift 2
   for it in 1500 3000 4500 6000 7500 9000; do
     grid OUT="$RUNS/ab" VARIANT=$variant TASK=$task SEED=1 THREADS=1 ITERATIONS=$it scripts/stage2_ab.sh "$@"
+  done
+}
+# Round 5 (2026-12-07): location seed 1 with the recipe (the cpu preset), the composition weighted 0.5
+# with the arms' σ 0.15, per-part credit (the arms from the composition alone) and its control
+recipe_round5() {
+  local it
+  grid OUT="$RUNS/ab" VARIANT=face05arms15w55 TASK=location SEED=1 THREADS=1 ITERATIONS=1500 scripts/stage2_ab.sh \
+    --location-facing-weight 0.5 --part-std arms=0.15 --objective-weights 0.5 0.5
+  grid OUT="$RUNS/ab" FORMULATION=recipe VARIANT=arms15 TASK=location SEED=1 THREADS=1 ITERATIONS=1500 scripts/stage2_ab.sh \
+    --part-std arms=0.15
+  for it in 1500 3000 4500; do
+    grid OUT="$RUNS/ab" FORMULATION=recipe VARIANT=credit_arms15 TASK=location SEED=1 THREADS=1 ITERATIONS=$it \
+      scripts/stage2_ab.sh --part-std arms=0.15 --part-objective-weights arms=1,0
+  done
+  for it in 1500 3000 4500 6000; do
+    grid OUT="$RUNS/ab" FORMULATION=recipe VARIANT=recipe TASK=location SEED=1 THREADS=1 ITERATIONS=$it scripts/stage2_ab.sh
   done
 }
 recipe() {
@@ -428,6 +444,7 @@ recipe() {
   bgf recipe_round3
   join
   recipe_long
+  recipe_round5
 }
 
 # Every shipped model, evaluated from its file with the commands of docs/results.md ("The shipped
