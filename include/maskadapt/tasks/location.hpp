@@ -159,13 +159,14 @@ class LocationTask {
     last_reward_[u] = static_cast<float>(location_reward(p, b.rot[0], b.lin_vel.col(0), target_[u], c_));
     Vec3 to = target_[u] - p;
     to.z() = 0;
-    if (to.norm() <= c_.radius && c_.reach_bonus > 0) {  // reached: paid, a success, the next target
+    const double dist = to.norm();  // horizontal distance to the target (m)
+    if (dist <= c_.radius && c_.reach_bonus > 0) {  // reached: paid, a success, the next target
       trials_.add(true);
       draw_target(p, e);
       return {last_reward_[u] + static_cast<float>(c_.reach_bonus), false};
     }
-    if (to.norm() <= c_.radius) reached_[u] = 1;
-    if (c_.divergence_distance > 0 && to.norm() > start_distance_[u] + c_.divergence_distance) {
+    if (dist <= c_.radius) reached_[u] = 1;
+    if (c_.divergence_distance > 0 && dist > start_distance_[u] + c_.divergence_distance) {
       trials_.add(reached_[u] != 0);  // the episode ends here; new_episode draws the next target
       return {last_reward_[u], true};
     }
