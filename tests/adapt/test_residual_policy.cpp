@@ -160,19 +160,34 @@ TEST(ResidualPolicy, GoalPartsMoveBesideTheMaskWhileTheBaseStillSeesThem) {
   }
 }
 
-TEST(ResidualPolicy, GradientsMatchFiniteDifferences) {
-  for (auto mode : {adapt::GainMode::Scalar, adapt::GainMode::PerDof}) {
-    auto pol = make_policy(mode, 0, nn::Activation::Tanh);  // smooth, so central differences apply
+namespace {
+/// The gradient tests' setup: a smooth (tanh) policy with small random residual weights, and a
+/// batch of four random observations under four different masks (left arm, all, none, left leg)
+/// with random actions.
+struct MixedMaskBatch {
+  adapt::ResidualPolicy<float> pol;
+  std::vector<PartMask> masks = {PartMask::of(BodyPart::LeftArm), PartMask::all(), PartMask::none(),
+                                 PartMask::of(BodyPart::LeftLeg)};
+  MatrixXf x, actions;
+  explicit MixedMaskBatch(adapt::GainMode mode) : pol(make_policy(mode, 0, nn::Activation::Tanh)) {
     pol.residual().mean_net.params().setRandom();
     pol.residual().mean_net.params() *= 0.3f;
     const PartElements pe(obs_parts());
     const MatrixXf obs = MatrixXf::Random(kObs, 4);
-    const std::vector<PartMask> masks = {PartMask::of(BodyPart::LeftArm), PartMask::all(), PartMask::none(),
-                                         PartMask::of(BodyPart::LeftLeg)};
     adapt::ResidualWorkspace<float> ws;
-    MatrixXf x;
     pol.build_input(pe, obs, masks, MatrixXf(), x, ws);
-    const MatrixXf actions = MatrixXf::Random(kAct, 4);
+    actions = MatrixXf::Random(kAct, 4);
+  }
+};
+}  // namespace
+
+TEST(ResidualPolicy, GradientsMatchFiniteDifferences) {
+  for (auto mode : {adapt::GainMode::Scalar, adapt::GainMode::PerDof}) {
+    MixedMaskBatch batch(mode);  // smooth, so central differences apply
+    auto& pol = batch.pol;
+    const auto& masks = batch.masks;
+    const MatrixXf& x = batch.x;
+    const MatrixXf& actions = batch.actions;
     const RowVectorXf dlogp = RowVectorXf::Random(4);
     auto loss = [&](adapt::ResidualPolicy<float>& p) {
       adapt::ResidualTrainCache<float> c;
@@ -215,19 +230,11 @@ TEST(ResidualPolicy, GradientsMatchFiniteDifferences) {
 // every row's weight equal to its column's is log_prob_mean_grad's, and against central
 // differences of Σ_ij dlogp_ij · log_prob_rows_ij it is the derivative with respect to μ̂.
 TEST(ResidualPolicy, PerRowLogProbsSumToTheLogProbAndTheirGradientIsExact) {
-  auto pol = make_policy(adapt::GainMode::PerDof, 0, nn::Activation::Tanh);
-  pol.residual().mean_net.params().setRandom();
-  pol.residual().mean_net.params() *= 0.3f;
-  const PartElements pe(obs_parts());
-  const MatrixXf obs = MatrixXf::Random(kObs, 4);
-  const std::vector<PartMask> masks = {PartMask::of(BodyPart::LeftArm), PartMask::all(), PartMask::none(),
-                                       PartMask::of(BodyPart::LeftLeg)};
-  adapt::ResidualWorkspace<float> ws;
-  MatrixXf x;
-  pol.build_input(pe, obs, masks, MatrixXf(), x, ws);
-  const MatrixXf actions = MatrixXf::Random(kAct, 4);
+  MixedMaskBatch batch(adapt::GainMode::PerDof);
+  const auto& pol = batch.pol;
+  const MatrixXf& actions = batch.actions;
   adapt::ResidualTrainCache<float> c;
-  pol.forward_train(x, masks, c);
+  pol.forward_train(batch.x, batch.masks, c);
   RowVectorXf lp;
   pol.log_prob(c, actions, lp);
   MatrixXf rows;

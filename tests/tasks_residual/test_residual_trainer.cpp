@@ -515,19 +515,26 @@ adapt::ResidualPolicy<float> tiny_location_residual(const Skeleton& skel) {
 FallCriteria never_falls(const Skeleton& skel) {
   return FallCriteria::for_skeleton(skel, {"root", "head", "l_arm", "r_arm", "l_leg", "r_leg"}, "");
 }
+/// The goal-evaluation tests' setup: the tiny data, that residual, and falls that never trigger.
+struct TinyGoalEval {
+  Data d;
+  const Skeleton& skel = d.skel;
+  const adapt::ResidualPolicy<float> pol = tiny_location_residual(d.skel);
+  const FallCriteria never = never_falls(d.skel);
+};
 }  // namespace
 
 // Goal-task evaluation: a goal radius that covers the whole floor makes every trial a success, a
 // 1 mm radius around targets metres away makes every trial a failure; at least min_trials end,
 // the Wilson interval brackets the rate, and a step budget too small to end them is refused.
 TEST(ResidualEval, GoalTaskSuccessRateCountsEndedTrials) {
-  Data d;
-  const Skeleton& skel = d.skel;
-  const adapt::ResidualPolicy<float> pol = tiny_location_residual(skel);
+  const TinyGoalEval g;
+  const Skeleton& skel = g.skel;
+  const adapt::ResidualPolicy<float>& pol = g.pol;
   GoalEvalOptions opt;
   opt.min_trials = 20;
   opt.episode_seconds = 1000.0;  // no truncation, and (below) no falls: every trial ends by its goal's expiry
-  const FallCriteria never = never_falls(skel);
+  const FallCriteria& never = g.never;
   for (double radius : {1000.0, 0.001}) {
     TinyWalkerSim sim(4);
     tasks::LocationConfig lc;
@@ -562,13 +569,13 @@ TEST(ResidualEval, GoalTaskSuccessRateCountsEndedTrials) {
 // limit cuts after 10 steps. With a radius covering the floor both would be successes; only the
 // first is counted, and the second appears in `censored` (one per ended episode).
 TEST(ResidualEval, GoalTaskTrialsCutByTheTimeLimitAreCensored) {
-  Data d;
-  const Skeleton& skel = d.skel;
-  const adapt::ResidualPolicy<float> pol = tiny_location_residual(skel);
+  const TinyGoalEval g;
+  const Skeleton& skel = g.skel;
+  const adapt::ResidualPolicy<float>& pol = g.pol;
   GoalEvalOptions opt;
   opt.min_trials = 20;
   opt.episode_seconds = 1.0;
-  const FallCriteria never = never_falls(skel);
+  const FallCriteria& never = g.never;
   TinyWalkerSim sim(4);
   tasks::LocationConfig lc;
   lc.radius = 1000.0;
@@ -587,13 +594,13 @@ TEST(ResidualEval, GoalTaskTrialsCutByTheTimeLimitAreCensored) {
 // zero threshold only frames exactly on a frame of B count, fewer than all; the success count and
 // the steps do not depend on it; bad parts and thresholds are refused.
 TEST(ResidualEval, GoalTaskMeasuresTheComposedMotionBesideSuccess) {
-  Data d;
-  const Skeleton& skel = d.skel;
-  const adapt::ResidualPolicy<float> pol = tiny_location_residual(skel);
+  const TinyGoalEval g;
+  const Skeleton& skel = g.skel;
+  const adapt::ResidualPolicy<float>& pol = g.pol;
   GoalEvalOptions opt;
   opt.min_trials = 12;
   opt.episode_seconds = 1000.0;
-  const FallCriteria never = never_falls(skel);
+  const FallCriteria& never = g.never;
   tasks::LocationConfig lc;
   lc.schedule = {5, 8};
   const PartMask arms = PartMask::parse("arms");
@@ -605,7 +612,7 @@ TEST(ResidualEval, GoalTaskMeasuresTheComposedMotionBesideSuccess) {
   const GoalEvalResult plain = run(std::nullopt);
   EXPECT_FALSE(plain.composed.has_value());
   for (const double threshold : {1e3, 0.0}) {
-    const GoalEvalResult r = run(ComposedMotion{&d.added, arms, threshold});
+    const GoalEvalResult r = run(ComposedMotion{&g.d.added, arms, threshold});
     ASSERT_TRUE(r.composed.has_value()) << threshold;
     EXPECT_EQ(r.composed->parts, arms);
     EXPECT_EQ(r.composed->threshold_per_body, threshold);
@@ -620,9 +627,9 @@ TEST(ResidualEval, GoalTaskMeasuresTheComposedMotionBesideSuccess) {
       EXPECT_LE(r.composed->h_norm, 1.0);
     }
   }
-  EXPECT_THROW(run(ComposedMotion{&d.added, PartMask::all(), 0.1}), Error);
+  EXPECT_THROW(run(ComposedMotion{&g.d.added, PartMask::all(), 0.1}), Error);
   EXPECT_THROW(run(ComposedMotion{nullptr, arms, 0.1}), Error);
-  EXPECT_THROW(run(ComposedMotion{&d.added, arms, std::nan("")}), Error);
+  EXPECT_THROW(run(ComposedMotion{&g.d.added, arms, std::nan("")}), Error);
 }
 
 // Per-part credit's groups: DoFs whose parts carry equal weights form one group, in order of
