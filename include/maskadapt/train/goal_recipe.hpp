@@ -5,7 +5,7 @@
 /// (`--preset paper`), as the values a run's config takes where its command line leaves them open.
 ///
 /// The recipe was found by measurement (issue 39; docs/results.md "Stage 2 recipe", docs/training.md
-/// "Stage 2: the goal-task recipe"):
+/// "Stage 2 on the goal tasks"):
 ///   - the goal's normalised advantage weighs 0.9 and the discriminators' together 0.1 (the paper:
 ///     ours' composition discriminator 1 against the goal's 0.5; CML-style's two discriminators
 ///     0.5 + 0.5 against 0.5). Under the paper's weights the composition objective drowns the goal
