@@ -90,6 +90,7 @@ struct ResidualTrainConfig {
   int goal_trajectories = 16;         ///< trajectories per refill
   double term_window_s = 1.0;         ///< windowed-average early termination window (s)
   double term_threshold = 0.05;       ///< … ends the goal episode when the mean tracking reward < this
+  double tracking_reward_scale = 1.0; ///< k of the tracking reward exp(−k·Σ angle²) (1: the paper's)
   std::string generator;              ///< generator checkpoint (CLI)
   std::string base_checkpoint;        ///< stage-1 checkpoint (CLI; recorded for provenance)
 
@@ -122,6 +123,10 @@ struct ResidualTrainConfig {
             {{}, {}, "blend_resets"});
     require(goal_steps >= 1 && sample_every >= 1 && goal_trajectories >= 1, "tracking counts must be ≥ 1", {{}, {}, "tracking"});
     require(term_window_s > 0, "must be > 0", {{}, {}, "term_window_s"});
+    require(std::isfinite(tracking_reward_scale) && tracking_reward_scale > 0 && tracking_reward_scale <= 100,
+            "must be in (0, 100]", {{}, {}, "tracking_reward_scale"});
+    require(tracking_reward_scale == 1.0 || task == "tracking", "the tracking reward scale is the tracking task's, not " + task + "'s",
+            {{}, {}, "tracking_reward_scale"});
     require(noise_hold_steps >= 1 && noise_hold_steps <= 100000, "must be in [1, 100000] control steps",
             {{}, {}, "noise_hold_steps"});
     require(std::isfinite(location_facing_weight) && location_facing_weight >= 0 && location_facing_weight <= 1,
@@ -216,78 +221,76 @@ inline std::array<std::vector<double>, kNumParts> part_weights_from_json(const n
   return w;
 }
 
+/// Splits "PARTS=VALUE" items (part and group names as PartMask::parse) and gives each named part
+/// the value `parse_value(value_text, item)` returns; a missing '=' (the message shows `form`) or a
+/// part named twice throws naming `field` (a flag). Parts no item names keep Value{}.
+template <class Value, class ParseValue>
+std::array<Value, kNumParts> parse_part_items(const std::vector<std::string>& items, const std::string& field,
+                                              const std::string& form, ParseValue&& parse_value) {
+  std::array<Value, kNumParts> out{};
+  std::array<bool, kNumParts> given{};
+  for (const std::string& item : items) {
+    const auto eq = item.rfind('=');
+    require(eq != std::string::npos && eq > 0 && eq + 1 < item.size(), "expected " + form + ", got '" + item + "'", {{}, {}, field});
+    const PartMask m = PartMask::parse(item.substr(0, eq), field);
+    const Value v = parse_value(item.substr(eq + 1), item);
+    for (std::size_t p = 0; p < static_cast<std::size_t>(kNumParts); ++p)
+      if (m.has(static_cast<BodyPart>(p))) {
+        require(!given[p], std::string(kPartNames[p]) + " is given twice", {{}, {}, field});
+        given[p] = true;
+        out[p] = v;
+      }
+  }
+  return out;
+}
+
+/// `text` (one value of `item`) as a number; throws "WHAT 'text' in 'item' is not a number" naming `field`.
+inline double parse_item_number(const std::string& text, const std::string& item, const std::string& what, const std::string& field) {
+  double v = 0;
+  std::size_t used = 0;
+  try {
+    v = std::stod(text, &used);
+  } catch (const std::exception&) {
+    used = 0;  // (not a number: refused below)
+  }
+  require(!text.empty() && used == text.size(), what + " '" + text + "' in '" + item + "' is not a number", {{}, {}, field});
+  return v;
+}
+
 /// Parses "PARTS=w1,w2,…" items ("arms=1,0", "lower_body=0.1,0.9"; part and group names as
 /// PartMask::parse) into per-part objective weights; a part named twice, a missing '=', a weight
 /// that is not a finite number ≥ 0, or items with different numbers of weights throw naming `field`.
 inline std::array<std::vector<double>, kNumParts> parse_part_weights(const std::vector<std::string>& items,
                                                                      const std::string& field) {
-  std::array<std::vector<double>, kNumParts> w{};
   std::size_t count = 0;
-  for (const std::string& item : items) {
-    const auto eq = item.rfind('=');
-    require(eq != std::string::npos && eq > 0 && eq + 1 < item.size(),
-            "expected PARTS=w1,w2,... (one weight per objective, e.g. arms=1,0), got '" + item + "'", {{}, {}, field});
-    const PartMask m = PartMask::parse(item.substr(0, eq), field);
-    std::vector<double> weights;
-    std::string text = item.substr(eq + 1);
-    std::size_t start = 0;
-    while (true) {
-      const std::size_t comma = text.find(',', start);
-      const std::string one = text.substr(start, comma == std::string::npos ? std::string::npos : comma - start);
-      double v = 0;
-      std::size_t used = 0;
-      try {
-        v = std::stod(one, &used);
-      } catch (const std::exception&) {
-        used = 0;  // (not a number: refused below)
-      }
-      require(!one.empty() && used == one.size(), "weight '" + one + "' in '" + item + "' is not a number", {{}, {}, field});
-      require(std::isfinite(v) && v >= 0, "a weight must be finite and >= 0, got '" + item + "'", {{}, {}, field});
-      weights.push_back(v);
-      if (comma == std::string::npos) break;
-      start = comma + 1;
-    }
-    require(count == 0 || weights.size() == count,
-            "every item needs the same number of weights (one per objective), got '" + item + "'", {{}, {}, field});
-    count = weights.size();
-    for (int p = 0; p < kNumParts; ++p)
-      if (m.has(static_cast<BodyPart>(p))) {
-        require(w[static_cast<std::size_t>(p)].empty(), std::string(kPartNames[static_cast<std::size_t>(p)]) + " is given twice",
-                {{}, {}, field});
-        w[static_cast<std::size_t>(p)] = weights;
-      }
-  }
-  return w;
+  return parse_part_items<std::vector<double>>(
+      items, field, "PARTS=w1,w2,... (one weight per objective, e.g. arms=1,0)", [&](const std::string& text, const std::string& item) {
+        std::vector<double> weights;
+        for (std::size_t start = 0;;) {
+          const std::size_t comma = text.find(',', start);
+          const double v = parse_item_number(text.substr(start, comma == std::string::npos ? std::string::npos : comma - start), item,
+                                             "weight", field);
+          require(std::isfinite(v) && v >= 0, "a weight must be finite and >= 0, got '" + item + "'", {{}, {}, field});
+          weights.push_back(v);
+          if (comma == std::string::npos) break;
+          start = comma + 1;
+        }
+        require(count == 0 || weights.size() == count,
+                "every item needs the same number of weights (one per objective), got '" + item + "'", {{}, {}, field});
+        count = weights.size();
+        return weights;
+      });
 }
 
 /// Parses "PARTS=σ" items ("arms=0.15", "left_leg,right_leg=0.05"; part and group names as
-/// PartMask::parse) into a σ per part; a part named twice, a missing '=', or a σ that is not a
-/// positive finite number throws naming `field` (a flag).
+/// PartMask::parse) into a σ per part (0 where no item names the part); a part named twice, a
+/// missing '=', or a σ that is not a positive finite number throws naming `field` (a flag).
 inline std::array<double, kNumParts> parse_part_std(const std::vector<std::string>& items, const std::string& field) {
-  std::array<double, kNumParts> s{};
-  for (const std::string& item : items) {
-    const auto eq = item.rfind('=');
-    require(eq != std::string::npos && eq > 0 && eq + 1 < item.size(), "expected PARTS=σ (e.g. arms=0.15), got '" + item + "'",
-            {{}, {}, field});
-    const PartMask m = PartMask::parse(item.substr(0, eq), field);
-    const std::string text = item.substr(eq + 1);
-    double v = 0;
-    std::size_t used = 0;
-    try {
-      v = std::stod(text, &used);
-    } catch (const std::exception&) {
-      used = 0;  // (not a number: refused below)
-    }
-    require(used == text.size(), "σ '" + text + "' in '" + item + "' is not a number", {{}, {}, field});
+  return parse_part_items<double>(items, field, "PARTS=σ (e.g. arms=0.15)", [&](const std::string& text, const std::string& item) {
+    const double v = parse_item_number(text, item, "σ", field);
     require(std::isfinite(v) && v > 0 && v <= 10, "σ must be in (0, 10], got '" + item + "'", {{}, {}, field});
-    for (int p = 0; p < kNumParts; ++p)
-      if (m.has(static_cast<BodyPart>(p))) {
-        require(s[static_cast<std::size_t>(p)] == 0, std::string(kPartNames[static_cast<std::size_t>(p)]) + " is given twice",
-                {{}, {}, field});
-        s[static_cast<std::size_t>(p)] = v;
-      }
-  }
-  return s;
+    return v;
+  });
 }
 
 inline nlohmann::json to_json(const ResidualTrainConfig& c) {
@@ -322,6 +325,7 @@ inline nlohmann::json to_json(const ResidualTrainConfig& c) {
           {"goal_trajectories", c.goal_trajectories},
           {"term_window_s", c.term_window_s},
           {"term_threshold", c.term_threshold},
+          {"tracking_reward_scale", c.tracking_reward_scale},
           {"generator", c.generator},
           {"base_checkpoint", c.base_checkpoint}};
 }
@@ -365,6 +369,7 @@ inline ResidualTrainConfig residual_config_from_json(const nlohmann::json& j, co
     c.goal_trajectories = j.at("goal_trajectories");
     c.term_window_s = j.at("term_window_s");
     c.term_threshold = j.at("term_threshold");
+    c.tracking_reward_scale = j.value("tracking_reward_scale", 1.0);  // (absent before it existed: the paper's reward)
     c.generator = j.at("generator");
     c.base_checkpoint = j.at("base_checkpoint");
   } catch (const nlohmann::json::exception& e) {

@@ -143,13 +143,14 @@ class Stage2Learner {
     MatrixXf adv_k = buf.advantages;
     if (dist) normalize_rows_over_ranks(*ranks.comm, adv_k);
     else rl::normalize_rows(adv_k);
-    adv_.setZero(buf.size());
-    for (Index k = 0; k < K_; ++k) adv_ += static_cast<float>(weights[static_cast<std::size_t>(k)]) * adv_k.row(k);
-    if (credit_.enabled()) {
+    if (credit_.enabled()) {  // each group's own weighting of the objectives
       require(static_cast<Index>(credit_.group_of_row.size()) == policy.action_dim(), "per-part credit: one group per DoF",
               {{}, {}, "part_objective_weights"});
       adv_g_ = credit_.weights.cast<float>() * adv_k;  // (groups × n)
       old_group_log_probs(policy, buf, ppo);
+    } else {  // one advantage per sample: the weighted sum over objectives
+      adv_.setZero(buf.size());
+      for (Index k = 0; k < K_; ++k) adv_ += static_cast<float>(weights[static_cast<std::size_t>(k)]) * adv_k.row(k);
     }
     if (dist) update_popart_over_ranks(*ranks.comm, buf.returns);
     else popart_.update(buf.returns, critic_.net);
@@ -241,13 +242,15 @@ class Stage2Learner {
     rl::gather_columns(ret_n_, idx, target_);
     const Index B = static_cast<Index>(idx.size());
     ms_.resize(static_cast<std::size_t>(B));
-    lp_old_.resize(B);
-    a_mb_.resize(B);
-    for (Index j = 0; j < B; ++j) {
-      const Index c = idx[static_cast<std::size_t>(j)];
-      lp_old_[j] = buf.log_probs[c];
-      a_mb_[j] = adv_[c];
-      ms_[static_cast<std::size_t>(j)] = buf.masks[static_cast<std::size_t>(c)];
+    for (Index j = 0; j < B; ++j) ms_[static_cast<std::size_t>(j)] = buf.masks[static_cast<std::size_t>(idx[static_cast<std::size_t>(j)])];
+    if (!credit_.enabled()) {  // (per-part credit gathers its groups' own, in part_credit_surrogate)
+      lp_old_.resize(B);
+      a_mb_.resize(B);
+      for (Index j = 0; j < B; ++j) {
+        const Index c = idx[static_cast<std::size_t>(j)];
+        lp_old_[j] = buf.log_probs[c];
+        a_mb_[j] = adv_[c];
+      }
     }
     policy.zero_grad();
     const MatrixXf& mu = policy.forward_train(x_, ms_, cache_);
