@@ -132,6 +132,9 @@ bad(--sample-every 0 ${R} --task tracking --sample-every 0)
 foreach(v -0.5 1.5 nan)
   bad(--term-threshold ${v} ${R} --task tracking --term-threshold ${v})
 endforeach()
+foreach(v 0 -1 101 nan abc)
+  bad(--tracking-reward-scale ${v} ${R} --task tracking --tracking-reward-scale ${v})
+endforeach()
 bad(--hidden 0 ${R} --hidden 16 0)
 bad(--hidden -16 ${R} --hidden -16)
 foreach(v 0 -0.2 11 nan abc)
@@ -188,6 +191,8 @@ if(HAS_MUJOCO)
   bad(--term-threshold - train-residual --method scratch --task composition --new-motion kick --term-threshold 0.1
       --iterations 1 --out ${OUT}/never)
   bad(--switch-rate - train-residual --method scratch --task tracking --switch-rate 1 --iterations 1 --out ${OUT}/never)
+  bad(--tracking-reward-scale - train-residual --method scratch --task composition --new-motion kick
+      --tracking-reward-scale 0.5 --iterations 1 --out ${OUT}/never)
   # AdaptNet adapts the base to a goal task only; a goal task refuses the tracking flags
   bad(--method - train-residual --method adaptnet --task composition --new-motion kick --iterations 1 --out ${OUT}/never)
   bad(--generator - train-residual --method scratch --task location --generator x.ckpt --iterations 1 --out ${OUT}/never)

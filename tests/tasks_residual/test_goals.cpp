@@ -76,6 +76,7 @@ TEST(Goals, RotationErrorAndRewardHaveClosedForms) {
   target[humanoid_skeleton().dof_offset(elbow) + 1] = 0.3 + 0.4;  // 0.4 rad off on one hinge
   EXPECT_NEAR(rotation_error_sq(skel, bodies, target, sim), 0.16, 1e-9);
   EXPECT_NEAR(tracking_reward(skel, bodies, target, sim), std::exp(-0.16), 1e-9);
+  EXPECT_NEAR(tracking_reward(skel, bodies, target, sim, 0.25), std::exp(-0.04), 1e-9);  // the reward scale k
   // a leg error is invisible to the arms' reward
   VectorXd t2 = s.q;
   t2[humanoid_skeleton().dof_offset(skel.index_of("L_Knee"))] += 1.0;

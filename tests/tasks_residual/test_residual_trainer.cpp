@@ -201,6 +201,27 @@ TEST(ResidualTrainer, TrackingTerminationResetsTheEnv) {
   EXPECT_TRUE(st.extra.count("tracking_reward"));
 }
 
+// The reward scale k: the same pose against the same target earns exp(−k·e), so k = 0.5 gives the
+// square root of the paper's reward (k = 1); k ≤ 0 is refused.
+TEST(ResidualTrainer, TrackingRewardScaleShapesTheTasksReward) {
+  Data d;
+  TinyWalkerSim sim(2);
+  tasks::TrackingTaskConfig t = tiny_tracking_config(d);
+  tasks::TrackingTaskConfig half = t;
+  half.reward_scale = 0.5;
+  tasks::TrackingTask paper(sim.skeleton(), t, 2), scaled(sim.skeleton(), half, 2);
+  paper.new_episode(sim, 0);
+  scaled.new_episode(sim, 0);
+  const float r1 = paper.after_step(sim, 0, tasks::EpisodeEnd::none).reward;
+  const float rh = scaled.after_step(sim, 0, tasks::EpisodeEnd::none).reward;
+  ASSERT_GT(r1, 0.0f);
+  ASSERT_LT(r1, 0.999f);  // the pose is off its target, or the test proves nothing
+  EXPECT_NEAR(rh, std::sqrt(r1), 1e-5);
+  tasks::TrackingTaskConfig zero = t;
+  zero.reward_scale = 0.0;
+  expect_error_naming([&] { tasks::TrackingTask bad(sim.skeleton(), zero, 2); }, "tracking_reward_scale", "a zero reward scale");
+}
+
 // ---- bases with normalised actions (PD target = offset + scale ⊙ a) ---------------------------
 
 namespace {
@@ -924,6 +945,23 @@ TEST(ResidualConfig, ParsesPerPartSigmaItemsAndKeepsThemThroughJsonAndIntoTheNet
   }
 }
 
+TEST(ResidualConfig, ParsesPerPartObjectiveWeightItemsAndRefusesBadOnesNamingTheFlag) {
+  const auto w = parse_part_weights({"arms=1,0", "lower_body=0.1,0.9"}, "--part-objective-weights");
+  EXPECT_EQ(w[static_cast<std::size_t>(BodyPart::LeftArm)], (std::vector<double>{1.0, 0.0}));
+  EXPECT_EQ(w[static_cast<std::size_t>(BodyPart::RightArm)], (std::vector<double>{1.0, 0.0}));
+  EXPECT_EQ(w[static_cast<std::size_t>(BodyPart::LeftLeg)], (std::vector<double>{0.1, 0.9}));
+  EXPECT_EQ(w[static_cast<std::size_t>(BodyPart::RightLeg)], (std::vector<double>{0.1, 0.9}));
+  EXPECT_TRUE(w[static_cast<std::size_t>(BodyPart::Trunk)].empty());  // not given: the run's objective weights
+  EXPECT_EQ(part_weights_from_json(part_weights_to_json(w)), w);
+  for (const std::vector<std::string>& bad :
+       {std::vector<std::string>{"arms"}, {"arms="}, {"=1,0"}, {"arms=1,"}, {",1"}, {"arms=1,x"}, {"arms=1,0x"},
+        {"arms=-1,0"}, {"arms=inf,0"}, {"arms=nan,1"}, {"tail=1,0"}, {"arms=1,0", "lower_body=1"},
+        {"arms=1,0", "left_arm=0,1"}}) {
+    expect_error_naming([&] { (void)parse_part_weights(bad, "--part-objective-weights"); }, "--part-objective-weights",
+                        "a bad --part-objective-weights item");
+  }
+}
+
 TEST(ResidualConfig, KeepsTheLocationDistanceDivergenceAndPositionWeightAndRefusesThemElsewhere) {
   ResidualTrainConfig c;
   c.task = "location";
@@ -970,6 +1008,24 @@ TEST(ResidualConfig, KeepsTheLocationDistanceDivergenceAndPositionWeightAndRefus
     b.location_max_distance = 5;
     b.location_divergence = 0;
   }, "location_position_weight");
+}
+
+TEST(ResidualConfig, KeepsTheTrackingRewardScaleAndRefusesItElsewhere) {
+  ResidualTrainConfig c;
+  c.task = "tracking";
+  c.tracking_reward_scale = 0.25;
+  EXPECT_EQ(residual_config_from_json(to_json(c)).tracking_reward_scale, 0.25);
+  nlohmann::json old = to_json(c);  // written before the field existed: the paper's reward
+  old.erase("tracking_reward_scale");
+  EXPECT_EQ(residual_config_from_json(old).tracking_reward_scale, 1.0);
+  for (const double k : {0.0, -1.0, 101.0, std::nan("")}) {
+    ResidualTrainConfig b = c;
+    b.tracking_reward_scale = k;
+    expect_error_naming([&] { b.validate(); }, "tracking_reward_scale", "a bad reward scale");
+  }
+  ResidualTrainConfig loc = c;
+  loc.task = "location";
+  expect_error_naming([&] { loc.validate(); }, "tracking_reward_scale", "the scale on another task");
 }
 
 TEST(ResidualConfig, KeepsTheLocationArriveDistanceAndReachBonusAndRefusesThemElsewhere) {

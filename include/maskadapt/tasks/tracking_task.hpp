@@ -6,7 +6,8 @@
 ///  - each env follows one buffered trajectory from its first frame, one frame per control step;
 ///  - goal observation: the next `goal_steps` target frames of the designated bodies, in the
 ///    root's heading frame (tracking::extract_goals);
-///  - reward: exp(−‖q* − q‖²) on the designated bodies at the target frame the step reached;
+///  - reward: exp(−k·‖q* − q‖²) on the designated bodies at the target frame the step reached
+///    (k = reward_scale, 1 the paper's);
 ///  - windowed early termination: when the mean reward over the last `term_window` steps falls
 ///    below `term_threshold`, the task ends the episode (the trainer resets the env);
 ///  - the goal buffer is refilled before every `sample_every`-th iteration (and at construction);
@@ -15,6 +16,7 @@
 #include <maskadapt/tasks/goal_task.hpp>
 #include <maskadapt/tracking/goals.hpp>
 
+#include <cmath>
 #include <functional>
 #include <string>
 #include <vector>
@@ -27,6 +29,7 @@ struct TrackingTaskConfig {
   int sample_every = 20;         ///< refill the goal buffer every N iterations
   Index term_window = 30;        ///< steps
   double term_threshold = 0.05;  ///< windowed mean reward below this ends the episode
+  double reward_scale = 1.0;     ///< k of the reward exp(−k·e) (> 0)
   /// Refills the goal buffer (at construction and every `sample_every` iterations).
   std::function<void(Rng&, tracking::GoalBuffer&)> refill;
   std::uint64_t seed = 1;
@@ -44,6 +47,8 @@ class TrackingTask {
     require(!c_.designated.empty(), "tracking needs designated parts", {{}, {}, "designated"});
     require(c_.goal_steps >= 1 && c_.sample_every >= 1, "tracking counts must be >= 1", {{}, {}, "tracking"});
     require(static_cast<bool>(c_.refill), "tracking needs a goal-buffer refill function", {{}, {}, "setup"});
+    require(std::isfinite(c_.reward_scale) && c_.reward_scale > 0, "the tracking reward scale must be finite and > 0",
+            {{}, {}, "tracking_reward_scale"});
     bodies_ = tracking::designated_bodies(skel_, c_.designated);
     term_ = tracking::WindowedTermination(num_envs, c_.term_window, c_.term_threshold);
     c_.refill(rng_, goals_);
@@ -81,7 +86,7 @@ class TrackingTask {
     if (end != EpisodeEnd::none) return {last_reward_[u], false};
     const auto& traj = goals_.trajectories[goal_index_[u]];
     const Index f = std::min<Index>(static_cast<Index>(goal_frame_[u] + 1), traj.num_frames() - 1);
-    last_reward_[u] = static_cast<float>(tracking::tracking_reward(skel_, bodies_, traj.q.col(f), sim.body_states(u)));
+    last_reward_[u] = static_cast<float>(tracking::tracking_reward(skel_, bodies_, traj.q.col(f), sim.body_states(u), c_.reward_scale));
     if (term_.push(e, last_reward_[u])) return {last_reward_[u], true};
     ++goal_frame_[u];
     return {last_reward_[u], false};

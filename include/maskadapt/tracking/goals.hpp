@@ -17,7 +17,7 @@
 /// Tracking error / reward: e = Σ_b angle(R*_b⁻¹ R_b)² over designated bodies, with R_b the
 /// simulated LOCAL joint rotation R_world(parent)⁻¹ R_world(b) and R*_b = joint_rotation(q*_b)
 /// (this is ‖q* − q‖² measured on rotations, so it is independent of the hinge convention);
-/// reward r = exp(−e).
+/// reward r = exp(−k·e), k the reward scale (1: the paper's).
 #include <maskadapt/core/error.hpp>
 #include <maskadapt/core/rng.hpp>
 #include <maskadapt/core/types.hpp>
@@ -90,10 +90,11 @@ inline double rotation_error_sq(const Skeleton& skel, const std::vector<int>& bo
   return e;
 }
 
-/// The tracking reward exp(−Σ_b angle²).
+/// The tracking reward exp(−k·Σ_b angle²), k = `scale` (1: the paper's; a smaller k keeps the
+/// reward away from 0 while the arms are still far from their targets).
 inline double tracking_reward(const Skeleton& skel, const std::vector<int>& bodies,
-                              const Eigen::Ref<const VectorXd>& q_target, const BodyStates& sim) {
-  return std::exp(-rotation_error_sq(skel, bodies, q_target, sim));
+                              const Eigen::Ref<const VectorXd>& q_target, const BodyStates& sim, double scale = 1.0) {
+  return std::exp(-scale * rotation_error_sq(skel, bodies, q_target, sim));
 }
 
 /// Mean over `bodies` of the distance (m) between the simulated and the target root-relative
