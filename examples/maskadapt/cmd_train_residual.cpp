@@ -13,6 +13,7 @@
 #include <maskadapt/core/collective.hpp>
 #include <maskadapt/eval/rollout_file.hpp>
 #include <maskadapt/motion/bvh.hpp>
+#include <maskadapt/nn/chunks.hpp>
 #include <maskadapt/humanoid/synthetic.hpp>
 #include <maskadapt/humanoid/retarget.hpp>
 #include <maskadapt/tracking/builtin_generator.hpp>
@@ -56,7 +57,7 @@ struct Args {
   int envs = -1, threads = -1, goal_trajectories = -1, sample_every = -1, noise_hold_steps = -1;
   std::vector<double> objective_weights;
   long long iterations = -1, seed = -1;
-  double minutes = -1, switch_rate = -1, episode_seconds = -1, term_threshold = -1, residual_std = -1, blend_resets = -1,
+  double minutes = -1, switch_rate = -1, episode_seconds = -1, term_threshold = -1, tracking_reward_scale = -1, residual_std = -1, blend_resets = -1,
          location_facing_weight = -1, location_position_weight = -1, strike_approach_weight = -1, location_divergence = -1,
          location_arrive_distance = -1, location_reach_bonus = -1;
   std::vector<double> location_distance;  ///< [min, max] (m)
@@ -69,7 +70,7 @@ struct Args {
 /// Flags that only one task reads; giving one for the other task is an error, not a no-op.
 const char* const kCompositionFlags[] = {"--new-motion", "--masks", "--switch-rate"};
 const char* const kTrackingFlags[] = {"--designated", "--generator", "--texts", "--goal-trajectories", "--sample-every",
-                                      "--term-threshold"};
+                                      "--term-threshold", "--tracking-reward-scale"};
 
 /// Throws naming the first flag of `given` (flags of `other_task`) when the run's task is not it.
 [[maybe_unused]] void require_task_flags(const std::vector<std::string>& given, const std::string& task, const std::string& other_task) {
@@ -158,8 +159,10 @@ ResidualSetup<Sim> make_setup(const ResidualTrainConfig& c, const std::shared_pt
   s.masks = tasks::parse_mask_set(c.masks, "--masks");
   s.switch_rate = c.switch_rate;
   s.negative_fraction = c.negative_fraction;
+  // Real windows are computed on the pool of the trainer's iteration (nn::ScopedPool), the same
+  // numbers for any number of threads.
   auto from = [](std::shared_ptr<MotionLibrary> lib) {
-    return [lib](Rng& r, Index B, MatrixXf& w, MatrixXf&) { w = lib->sample_amp_windows(r, static_cast<int>(B)); };
+    return [lib](Rng& r, Index B, MatrixXf& w, MatrixXf&) { w = lib->sample_amp_windows(r, static_cast<int>(B), nn::default_pool()); };
   };
   const std::vector<double> w = c.objective_weights;
   // a goal on the base's own motion: imitate A
@@ -179,8 +182,8 @@ ResidualSetup<Sim> make_setup(const ResidualTrainConfig& c, const std::shared_pt
   if (c.method == "ours") {
     auto set = blends ? blends : std::make_shared<const tasks::BlendedMotionSet>(*base_lib, *new_lib, s.masks);
     DiscriminatorSource src{"composition", w.size() > 0 ? w[0] : 1.0, {}, true,
-                            [set](Rng& r, Index B, MatrixXf& x, MatrixXf& m) { set->sample_real(r, B, x, m); },
-                            [set](Rng& r, Index B, MatrixXf& x, MatrixXf& m) { set->sample_negative(r, B, x, m); }};
+                            [set](Rng& r, Index B, MatrixXf& x, MatrixXf& m) { set->sample_real(r, B, x, m, nullptr, nn::default_pool()); },
+                            [set](Rng& r, Index B, MatrixXf& x, MatrixXf& m) { set->sample_negative(r, B, x, m, nn::default_pool()); }};
     s.discriminators.push_back(src);
   } else {  // cml / scratch / adaptnet: fixed region = the first mask; one discriminator per group
     // (AdaptNet acts on every DoF and sees no mask: it gets the same part-wise rewards as cml)
@@ -208,6 +211,7 @@ tasks::TrackingTask make_tracking(const ResidualTrainConfig& c, std::shared_ptr<
   t.stream = stream;
   t.term_window = std::max<Index>(1, std::llround(c.term_window_s / control_dt));
   t.term_threshold = c.term_threshold;
+  t.reward_scale = c.tracking_reward_scale;
   const Index frames = std::llround(c.rl.env.episode_seconds / control_dt) + c.goal_steps + 1;
   const int n = c.goal_trajectories;
   t.refill = [gen, base_lib, texts, frames, n](Rng& r, tracking::GoalBuffer& b) {
@@ -263,6 +267,7 @@ void run_train_residual(const Args& a) {
     if (a.goal_trajectories > 0) c.goal_trajectories = a.goal_trajectories;
     if (a.sample_every > 0) c.sample_every = a.sample_every;
     if (a.term_threshold >= 0) c.term_threshold = a.term_threshold;
+    if (a.tracking_reward_scale > 0) c.tracking_reward_scale = a.tracking_reward_scale;
     if (!a.hidden.empty()) c.residual_hidden = a.hidden;
     if (a.residual_std > 0) c.residual_std = a.residual_std;
     if (a.blend_resets >= 0) c.blend_resets = a.blend_resets;
@@ -331,7 +336,8 @@ void run_train_residual(const Args& a) {
                               {"location_distance", "--location-distance"}, {"location_divergence", "--location-divergence"},
                               {"location_arrive_distance", "--location-arrive-distance"},
                               {"location_reach_bonus", "--location-reach-bonus"},
-                              {"residual_part_std", "--part-std"}, {"part_objective_weights", "--part-objective-weights"}});
+                              {"residual_part_std", "--part-std"}, {"part_objective_weights", "--part-objective-weights"},
+                              {"tracking_reward_scale", "--tracking-reward-scale"}});
   require(c.task != "composition" || !c.new_motions.empty(), "composition needs --new-motion", {{}, {}, "--new-motion"});
 
   const MujocoCharacter& character = mujoco_character(c.rl.env.character, "env.character");
@@ -843,6 +849,9 @@ const bool registered = maskadapt::cli::register_command([](CLI::App& app) {
   keep(c->add_option("--term-threshold", a->term_threshold,
                      "tracking: windowed mean tracking reward (in (0, 1]) below which an episode ends; 0 = never"))
       ->check(probability());
+  keep(c->add_option("--tracking-reward-scale", a->tracking_reward_scale,
+                     "tracking: k of the reward exp(-k * sum of the designated bodies' squared rotation errors); 1 = the paper's"))
+      ->check(positive_real(100.0));
   for (CLI::Option* o : fixed_by_resume) resume->excludes(o);
   c->callback([a, c] {
     for (const char* f : kCompositionFlags)

@@ -413,6 +413,29 @@ TEST(Composition, BlendedRealSamplesTakeBOnMaskedPartsAndAElsewhere) {
   for (Index j = 0; j < 32; ++j) EXPECT_NE(c.col(j), lower_bits);
 }
 
+// The windows computed on a pool are the serial ones, bit for bit, and the draws leave the RNG
+// in the same state (so a run's samples do not depend on its thread count).
+TEST(Composition, BlendedSamplesOnAPoolAreTheSerialOnes) {
+  const Skeleton& skel = humanoid_skeleton();
+  MotionLibrary a(skel), b(skel);
+  a.add(synthetic_walk());
+  b.add(synthetic_kick());
+  const tasks::BlendedMotionSet set(a, b, {PartMask::parse("lower_body"), PartMask::parse("arms")});
+  ThreadPool pool(3);
+  Rng serial(9), pooled(9);
+  MatrixXf w1, c1, w2, c2;
+  set.sample_real(serial, 37, w1, c1);
+  set.sample_real(pooled, 37, w2, c2, nullptr, &pool);
+  EXPECT_TRUE(w1 == w2);
+  EXPECT_TRUE(c1 == c2);
+  set.sample_negative(serial, 21, w1, c1);
+  set.sample_negative(pooled, 21, w2, c2, &pool);
+  EXPECT_TRUE(w1 == w2);
+  EXPECT_TRUE(c1 == c2);
+  EXPECT_EQ(serial.uniform_int(1u << 30), pooled.uniform_int(1u << 30));
+  EXPECT_GT(w1.cwiseAbs().sum(), 0.0f);  // (not a pair of empty batches)
+}
+
 TEST(Composition, WindowRowsSelectExactlyThePartsElements) {
   const auto parts = obs_parts();
   const auto rows = tasks::window_rows(parts, PartMask::of(BodyPart::LeftArm), 2);

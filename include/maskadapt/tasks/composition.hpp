@@ -16,6 +16,7 @@
 ///    imitation discriminator on the non-designated parts).
 #include <maskadapt/core/error.hpp>
 #include <maskadapt/core/rng.hpp>
+#include <maskadapt/core/thread_pool.hpp>
 #include <maskadapt/core/types.hpp>
 #include <maskadapt/humanoid/observation.hpp>
 #include <maskadapt/mask/parts.hpp>
@@ -137,16 +138,26 @@ class BlendedMotionSet {
   Index window_dim() const { return libs_.front()->amp_window_dim(); }
 
   /// B real samples: windows (window_dim × B), their mask bits (5 × B); masks drawn uniformly
-  /// from the set. `masks_out` (optional) receives the masks.
-  void sample_real(Rng& rng, Index B, MatrixXf& windows, MatrixXf& cond, std::vector<PartMask>* masks_out = nullptr) const {
+  /// from the set. `masks_out` (optional) receives the masks. The masks and times are drawn in
+  /// order from `rng`; the windows are then computed on `pool` when one is given — the same
+  /// numbers for any pool size (as MotionLibrary::sample_amp_windows).
+  void sample_real(Rng& rng, Index B, MatrixXf& windows, MatrixXf& cond, std::vector<PartMask>* masks_out = nullptr,
+                   ThreadPool* pool = nullptr) const {
     windows.resize(window_dim(), B);
     std::vector<PartMask> ms(static_cast<std::size_t>(B));
-    for (Index b = 0; b < B; ++b) {
+    std::vector<std::size_t> lib_of(static_cast<std::size_t>(B));
+    std::vector<ClipTime> times(static_cast<std::size_t>(B));
+    for (std::size_t b = 0; b < static_cast<std::size_t>(B); ++b) {
       const auto k = static_cast<std::size_t>(rng.uniform_int(masks_.size()));
-      ms[static_cast<std::size_t>(b)] = masks_[k];
-      const MotionLibrary& lib = *libs_[k];
-      const ClipTime ct = lib.sample(rng, true, (kAmpWindowFrames - 1) * kAmpFrameDt);
-      lib.amp_window(ct.clip, ct.time, windows.col(b));
+      ms[b] = masks_[k];
+      lib_of[b] = k;
+      times[b] = libs_[k]->sample(rng, true, (kAmpWindowFrames - 1) * kAmpFrameDt);
+    }
+    auto window = [&](std::size_t b) { libs_[lib_of[b]]->amp_window(times[b].clip, times[b].time, windows.col(static_cast<Index>(b))); };
+    if (pool && B > 1) {
+      pool->parallel_for(0, times.size(), window);
+    } else {
+      for (std::size_t b = 0; b < times.size(); ++b) window(b);
     }
     cond = mask_bits(ms);
     if (masks_out) *masks_out = std::move(ms);
@@ -154,9 +165,9 @@ class BlendedMotionSet {
 
   /// B negative-expert samples: real blend windows with a mask m' ≠ their m (another mask of the
   /// set, or a uniformly drawn other non-empty mask when the set has one entry).
-  void sample_negative(Rng& rng, Index B, MatrixXf& windows, MatrixXf& cond) const {
+  void sample_negative(Rng& rng, Index B, MatrixXf& windows, MatrixXf& cond, ThreadPool* pool = nullptr) const {
     std::vector<PartMask> ms;
-    sample_real(rng, B, windows, cond, &ms);
+    sample_real(rng, B, windows, cond, &ms, pool);
     for (auto& m : ms) {
       PartMask o = m;
       while (o == m) {
