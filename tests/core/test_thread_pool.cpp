@@ -82,3 +82,16 @@ TEST(ThreadPool, NestedParallelForRunsSeriallyInsteadOfDeadlocking) {
   for (auto& h : hits) ASSERT_EQ(h.load(), 1);
   EXPECT_EQ(nested_in_region.load(), 8 * 16);
 }
+
+TEST(ThreadPool, ForEachIndexRunsInOrderWithoutAPoolAndOnceEachWithOne) {
+  std::vector<std::size_t> order;
+  for_each_index(nullptr, 5, [&](std::size_t i) { order.push_back(i); });
+  EXPECT_EQ(order, (std::vector<std::size_t>{0, 1, 2, 3, 4}));
+  for_each_index(nullptr, 0, [&](std::size_t) { ADD_FAILURE() << "body called for n = 0"; });
+
+  ThreadPool pool(2);
+  std::vector<std::atomic<int>> hits(1000);
+  for_each_index(&pool, hits.size(), [&](std::size_t i) { hits[i].fetch_add(1); });
+  for (const auto& h : hits) EXPECT_EQ(h.load(), 1);
+  for_each_index(&pool, 0, [&](std::size_t) { ADD_FAILURE() << "body called for n = 0"; });
+}

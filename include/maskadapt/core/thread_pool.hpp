@@ -170,4 +170,16 @@ class ThreadPool {
   std::exception_ptr error_;
 };
 
+/// Calls body(i) for every i in [0, n): on `pool` where one is given (ThreadPool::parallel_for: any
+/// order, one thread per index), else in order on the calling thread. The one way this library
+/// runs optional per-env or per-sample work in parallel.
+template <class Body>
+void for_each_index(ThreadPool* pool, std::size_t n, Body&& body) {
+  if (pool) {
+    pool->parallel_for(0, n, body);
+  } else {
+    for (std::size_t i = 0; i < n; ++i) body(i);
+  }
+}
+
 }  // namespace maskadapt

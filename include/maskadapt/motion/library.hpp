@@ -286,11 +286,7 @@ class MotionLibrary {
     std::vector<ClipTime> times(static_cast<std::size_t>(batch));
     for (auto& ct : times) ct = sample(rng, true, (kAmpWindowFrames - 1) * kAmpFrameDt);
     auto window = [&](std::size_t b) { amp_window(times[b].clip, times[b].time, out.col(static_cast<Index>(b))); };
-    if (pool && batch > 1) {
-      pool->parallel_for(0, times.size(), window);
-    } else {
-      for (std::size_t b = 0; b < times.size(); ++b) window(b);
-    }
+    for_each_index(pool, times.size(), window);
   }
 
   /// Visitation features of every frame of a clip: (3·bodies-in-parts × num_frames).

@@ -169,11 +169,7 @@ class Adam {
   /// body(i) for every segment: on `pool` when `split` (and a pool is given), else in order.
   template <class Body>
   void for_segments(ThreadPool* pool, bool split, Body&& body) const {
-    if (split && pool != nullptr) {
-      pool->parallel_for(0, segments_.size(), [&](std::size_t i) { body(i); });
-    } else {
-      for (std::size_t i = 0; i < segments_.size(); ++i) body(i);
-    }
+    for_each_index(split ? pool : nullptr, segments_.size(), [&](std::size_t i) { body(i); });
   }
 
   /// Σ gᵢ² in double, in four interleaved partial sums (a fixed order: the same bits on every

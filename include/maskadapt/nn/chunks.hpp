@@ -87,11 +87,7 @@ void for_each_chunk(ThreadPool* pool, Index n, bool split, Body&& body) {
     chunk_range(n, i, lo, hi);
     if (hi > lo) body(lo, hi);
   };
-  if (pool == nullptr || c == 1) {
-    for (Index i = 0; i < c; ++i) run(i);
-    return;
-  }
-  pool->parallel_for(0, static_cast<std::size_t>(c), [&](std::size_t i) { run(static_cast<Index>(i)); });
+  for_each_index(pool, static_cast<std::size_t>(c), [&](std::size_t i) { run(static_cast<Index>(i)); });
 }
 
 /// Element-wise or column-wise passes (copies, normalisation, gathers) over at least this many

@@ -19,8 +19,7 @@ void compute_observations(const S& sim, Eigen::Ref<MatrixXf> out, ThreadPool* po
   auto one = [&](std::size_t e) {
     compute_observation(sim.skeleton(), sim.body_states(e), out.col(static_cast<Index>(e)));
   };
-  if (pool) pool->parallel_for(0, sim.num_envs(), one);
-  else for (std::size_t e = 0; e < sim.num_envs(); ++e) one(e);
+  for_each_index(pool, sim.num_envs(), one);
 }
 
 /// Convenience: returns the batch.

@@ -154,11 +154,7 @@ class BlendedMotionSet {
       times[b] = libs_[k]->sample(rng, true, (kAmpWindowFrames - 1) * kAmpFrameDt);
     }
     auto window = [&](std::size_t b) { libs_[lib_of[b]]->amp_window(times[b].clip, times[b].time, windows.col(static_cast<Index>(b))); };
-    if (pool && B > 1) {
-      pool->parallel_for(0, times.size(), window);
-    } else {
-      for (std::size_t b = 0; b < times.size(); ++b) window(b);
-    }
+    for_each_index(pool, times.size(), window);
     cond = mask_bits(ms);
     if (masks_out) *masks_out = std::move(ms);
   }

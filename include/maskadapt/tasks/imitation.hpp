@@ -316,10 +316,7 @@ class ImitationTask {
  private:
   template <class F>
   void for_envs(F&& f) {
-    const auto n = static_cast<std::size_t>(num_envs());
-    if (pool_ && n > 1) pool_->parallel_for(0, n, [&](std::size_t e) { f(static_cast<Index>(e)); });
-    else
-      for (std::size_t e = 0; e < n; ++e) f(static_cast<Index>(e));
+    for_each_index(pool_, static_cast<std::size_t>(num_envs()), [&](std::size_t e) { f(static_cast<Index>(e)); });
   }
 
   void push_history(Index e, const Eigen::Ref<const VectorXf>& s) {
