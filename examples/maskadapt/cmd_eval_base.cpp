@@ -34,6 +34,7 @@ struct EvalBaseArgs {
   double threshold = 0.5, episode_seconds = 10.0;
   std::string counting = "nearest";
   bool deterministic = false;
+  std::vector<std::string> masks;  ///< --masks: evaluate only these (empty: all 16)
 };
 
 void write_json(const std::string& path, const nlohmann::json& j);
@@ -45,6 +46,13 @@ void run_eval_base(const EvalBaseArgs& a) {
   throw Error("this build has no MuJoCo; eval-base needs the maskadapt::mujoco target", {{}, std::nullopt, "eval-base"});
 #else
   require(a.envs >= 1, "must be >= 1", {{}, {}, "--envs"});
+  std::vector<PartMask> masks;  // --masks, checked before anything is loaded
+  for (const std::string& text : a.masks) {
+    const PartMask m = PartMask::parse(text, "--masks");
+    for (PartMask seen : masks)
+      require(!(seen == m), "mask '" + text + "' is given twice (as " + m.to_string() + ")", {{}, {}, "--masks"});
+    masks.push_back(m);
+  }
   const Checkpoint ck = load_checkpoint(a.checkpoint);
   ThreadPool pool(static_cast<std::size_t>(a.threads));
   const MujocoCharacter& character = mujoco_character(checkpoint_character(ck, a.checkpoint), a.checkpoint + " (env.character)");
@@ -63,18 +71,21 @@ void run_eval_base(const EvalBaseArgs& a) {
   opt.episode_seconds = a.episode_seconds;
   opt.deterministic = a.deterministic;
   opt.seed = static_cast<std::uint64_t>(a.seed);
+  opt.masks = masks;
   std::cout << "eval-base: " << a.checkpoint << " (" << character.name << ", iteration " << loaded.iteration
             << (loaded.policy_only ? ", model (policy only)" : "") << ", masking "
             << (loaded.config.mask.enabled ? "on" : "off") << ", lambda_MI " << loaded.config.mask.lambda_mi << "); "
-            << reference.cols() << " reference frames from " << lib->num_clips() << " clip(s); 16 masks x 2 starts x "
+            << reference.cols() << " reference frames from " << lib->num_clips() << " clip(s); "
+            << (opt.masks.empty() ? std::size_t{16} : opt.masks.size()) << " masks x 2 starts x "
             << a.envs << " envs x " << a.frames << " frames; threshold " << a.threshold << " m, counting " << a.counting << "\n";
   Stopwatch clock;
   BaseEvaluation ev = evaluate_base_policy(sim, loaded.policy, library_reset_sampler(lib), reference, opt,
                                            character.fall_criteria(loaded.config.env.termination_height),
                                            loaded.config.env.termination_height, &pool, &std::cout);
   ev.reference_speed = reference_mean_speed(*lib);
-  std::cout << "\n" << format_hnorm_table(ev, false) << "\n" << format_hnorm_table(ev, true) << "\n"
-            << format_episode_table(ev) << "eval-base: " << clock.seconds() << " s\n";
+  std::cout << "\n";
+  if (opt.masks.empty()) std::cout << format_hnorm_table(ev, false) << "\n" << format_hnorm_table(ev, true) << "\n";
+  std::cout << format_episode_table(ev) << "eval-base: " << clock.seconds() << " s\n";
   if (!a.json.empty()) {
     nlohmann::json j = to_json(ev);
     j["checkpoint"] = a.checkpoint;
@@ -181,6 +192,10 @@ const bool registered = maskadapt::cli::register_command([](CLI::App& app) {
                 "(every reference frame within the threshold, the paper's wording)")
       ->check(CLI::IsMember({"nearest", "all_within"}));
   c->add_flag("--deterministic", args->deterministic, "use the policy mean instead of sampling");
+  c->add_option("--masks", args->masks,
+                "evaluate only these masks, e.g. --masks none legs left_arm,right_arm (default: the null mask and "
+                "every mask of one or two parts)")
+      ->check(parsed_by([](const std::string& t) { (void)maskadapt::PartMask::parse(t, "--masks"); }, "MASK"));
   c->callback([args] { run_eval_base(*args); });
 });
 

@@ -32,6 +32,7 @@ struct TrainBaseArgs {
   int max_parts = -1;
   long long seed = -1, mask_warmup_samples = -1, mask_ramp_samples = -1;
   bool no_mask = false;
+  bool keep_checkpoints = false;
   std::string action_offset, action_scale, actor_lr_schedule, mi_gradient, hidden_value;
 };
 
@@ -81,6 +82,7 @@ void run_train_base(const TrainBaseArgs& a) {
   if (a.mi_target_tau > 0) cfg.mask.mi_target_tau = a.mi_target_tau;
   if (!a.hidden_value.empty()) cfg.mask.hidden_value = a.hidden_value;
   if (a.no_mask) cfg.mask.enabled = false;
+  if (a.keep_checkpoints) cfg.run.keep_checkpoints = true;
   if (!a.action_offset.empty()) cfg.net.action_offset = a.action_offset;
   if (!a.action_scale.empty()) cfg.net.action_scale = a.action_scale;
   if (!a.actor_lr_schedule.empty()) cfg.ppo.actor_lr_schedule = a.actor_lr_schedule;
@@ -173,6 +175,9 @@ const bool registered = maskadapt::cli::register_command([](CLI::App& app) {
   c->add_option("--resume", args->resume, "continue from a checkpoint")
       ->excludes(preset)->excludes(offset)->excludes(scale)->excludes(character);
   c->add_option("--checkpoint-every", args->checkpoint_every, "checkpoint period in iterations")->transform(positive_integer());
+  c->add_flag("--keep-checkpoints", args->keep_checkpoints,
+              "also keep checkpoint_<iteration>.bin at every period (a learning curve over wall time: "
+              "scripts/time_to_skill.sh)");
   c->callback([args] { run_train_base(*args); });
 });
 

@@ -10,6 +10,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
 #include <set>
@@ -255,4 +256,50 @@ TEST(EvalBase, TableHasTheUpperTriangularShapeAndJsonMatchesTheRows) {
   const std::string table = format_hnorm_table(ev, false);
   EXPECT_NE(table.find("left_leg"), std::string::npos);
   EXPECT_EQ(std::count(table.begin(), table.end(), '\n'), 7);  // title, header, 5 rows
+}
+
+// `eval-base --masks`: a chosen subset evaluates each of its masks exactly as the whole table does
+// (every mask draws the same seeds), in the order given, and the JSON tables mark the masks not
+// evaluated as null.
+TEST(EvalBase, ASubsetOfMasksGivesTheWholeTablesRowsForThoseMasks) {
+  Fixture f(3);
+  EvalBaseOptions opt;
+  opt.frames = 40;
+  opt.threshold = 0.3;
+  opt.episode_seconds = 0.3;  // several episodes per env end within the 40 steps
+  const Skeleton& skel = f.sim.skeleton();
+  Rng rng(11);
+  auto reset = upright_jittered(skel);
+  MatrixXf ref;
+  for (int k = 0; k < 20; ++k) {
+    const VectorXf v = visitation_features(skel, forward_kinematics(skel, reset(rng).pose));
+    if (k == 0) ref.resize(v.size(), 20);
+    ref.col(k) = v;
+  }
+  const BaseEvaluation whole = evaluate_base_policy(f.sim, f.policy, reset, ref, opt, f.fall());
+  const PartMask legs = PartMask::parse("legs");
+  opt.masks = {legs, PartMask::none()};
+  const BaseEvaluation subset = evaluate_base_policy(f.sim, f.policy, reset, ref, opt, f.fall());
+  ASSERT_EQ(subset.rows.size(), 2u);
+  EXPECT_EQ(subset.rows[0].mask, legs);
+  EXPECT_TRUE(subset.rows[1].mask.empty());
+  auto same = [](double a, double b) { return (std::isnan(a) && std::isnan(b)) || a == b; };
+  long long episodes = 0;
+  for (const auto& s : subset.rows) {
+    const auto w = std::find_if(whole.rows.begin(), whole.rows.end(), [&](const MaskEvaluation& r) { return r.mask == s.mask; });
+    ASSERT_NE(w, whole.rows.end());
+    for (const auto& [a, b] : {std::pair{s.rsi, w->rsi}, std::pair{s.shared, w->shared}}) {
+      EXPECT_EQ(a.h_norm, b.h_norm) << s.mask.to_string();
+      EXPECT_TRUE(same(a.fall_rate, b.fall_rate)) << s.mask.to_string();
+      EXPECT_TRUE(same(a.mean_speed, b.mean_speed)) << s.mask.to_string();
+      EXPECT_EQ(a.episodes, b.episodes);
+      EXPECT_EQ(a.falls, b.falls);
+      episodes += a.episodes;
+    }
+  }
+  EXPECT_GT(episodes, 0);  // (the comparison covers ended episodes, not only empty results)
+  const nlohmann::json j = to_json(subset);
+  EXPECT_EQ(j["masks"].size(), 2u);
+  EXPECT_EQ(j["table_rsi"][3][4].get<double>(), subset.rows[0].rsi.h_norm);  // left_leg × right_leg
+  EXPECT_TRUE(j["table_rsi"][0][0].is_null());                               // trunk: not evaluated
 }

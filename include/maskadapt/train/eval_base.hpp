@@ -38,6 +38,9 @@ struct EvalBaseOptions {
   /// every reference frame within the threshold (eval/visitation_entropy.hpp says why nearest)
   eval::VisitCounting counting = eval::VisitCounting::nearest;
   double episode_seconds = 10.0; ///< episode limit (s)
+  /// The masks evaluated, in this order; empty: the whole table, one_and_two_part_masks(). Each
+  /// mask's rows are the same whichever others are evaluated (common random numbers).
+  std::vector<PartMask> masks;
   bool deterministic = false;    ///< policy mean instead of samples
   std::uint64_t seed = 1;
 };
@@ -180,8 +183,8 @@ VisitationResult evaluate_visitation(Sim& sim, const BasePolicy& policy, const t
   return r;
 }
 
-/// The whole table: every mask of one_and_two_part_masks(), from RSI (`reset`) and from one
-/// shared initial state (the first sample of `reset` with Rng::stream(seed, 0x5A4ED)).
+/// The whole table: every mask of one_and_two_part_masks() (or of opt.masks), from RSI (`reset`)
+/// and from one shared initial state (the first sample of `reset` with Rng::stream(seed, 0x5A4ED)).
 template <Simulator Sim>
 BaseEvaluation evaluate_base_policy(Sim& sim, const BasePolicy& policy, const tasks::ResetSampler& reset,
                                     const Eigen::Ref<const MatrixXf>& reference, const EvalBaseOptions& opt,
@@ -194,7 +197,7 @@ BaseEvaluation evaluate_base_policy(Sim& sim, const BasePolicy& policy, const ta
   Rng shared_rng = Rng::stream(opt.seed, 0x5A4EDULL);
   const tasks::ResetSample shared_sample = reset(shared_rng);
   const tasks::ResetSampler shared = [shared_sample](Rng&) { return shared_sample; };
-  for (PartMask m : one_and_two_part_masks()) {
+  for (PartMask m : opt.masks.empty() ? one_and_two_part_masks() : opt.masks) {
     MaskEvaluation row;
     row.mask = m;
     row.rsi = evaluate_visitation(sim, policy, reset, m, reference, opt, fall, min_head_height, pool);
@@ -276,6 +279,7 @@ inline nlohmann::json to_json(const VisitationResult& r) {
 }
 
 /// JSON document: options, sizes, one object per mask, and the two 5×5 upper-triangular tables
+/// (cells of masks not evaluated, and those below the diagonal, are null)
 /// (`table_rsi`, `table_shared`; null below the diagonal).
 inline nlohmann::json to_json(const BaseEvaluation& ev) {
   nlohmann::json j;
@@ -304,8 +308,10 @@ inline nlohmann::json to_json(const BaseEvaluation& ev) {
           continue;
         }
         const PartMask m = PartMask::of(static_cast<BodyPart>(p)) | PartMask::of(static_cast<BodyPart>(q));
+        nlohmann::json cell = nullptr;  // (a mask not evaluated: null)
         for (const auto& r : ev.rows)
-          if (r.mask == m) row.push_back(shared ? r.shared.h_norm : r.rsi.h_norm);
+          if (r.mask == m) cell = shared ? r.shared.h_norm : r.rsi.h_norm;
+        row.push_back(cell);
       }
       t.push_back(row);
     }
