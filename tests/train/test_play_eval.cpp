@@ -31,6 +31,18 @@ tasks::ResetSampler upright_jittered(const Skeleton& skel) {
   };
 }
 
+/// A reference for eval-base: the visitation features of 20 random upright poses drawn from `reset`.
+MatrixXf random_upright_reference(const Skeleton& skel, const tasks::ResetSampler& reset, std::uint64_t seed) {
+  Rng rng(seed);
+  MatrixXf ref;
+  for (int k = 0; k < 20; ++k) {
+    const VectorXf v = visitation_features(skel, forward_kinematics(skel, reset(rng).pose));
+    if (k == 0) ref.resize(v.size(), 20);
+    ref.col(k) = v;
+  }
+  return ref;
+}
+
 BaseTrainConfig play_config() {
   BaseTrainConfig c;  // the paper's formulation (struct defaults), not the cpu preset's walking recipe
   c.net.actor_hidden = {8};
@@ -220,14 +232,8 @@ TEST(EvalBase, TableHasTheUpperTriangularShapeAndJsonMatchesTheRows) {
   opt.threshold = 0.3;
   // reference: the visitation features of a few random upright poses
   const Skeleton& skel = f.sim.skeleton();
-  Rng rng(9);
   auto reset = upright_jittered(skel);
-  MatrixXf ref;
-  for (int k = 0; k < 20; ++k) {
-    const VectorXf v = visitation_features(skel, forward_kinematics(skel, reset(rng).pose));
-    if (k == 0) ref.resize(v.size(), 20);
-    ref.col(k) = v;
-  }
+  const MatrixXf ref = random_upright_reference(skel, reset, 9);
   const BaseEvaluation ev = evaluate_base_policy(f.sim, f.policy, reset, ref, opt, f.fall());
   ASSERT_EQ(ev.rows.size(), 16u);
   for (const auto& r : ev.rows) {
@@ -268,14 +274,8 @@ TEST(EvalBase, ASubsetOfMasksGivesTheWholeTablesRowsForThoseMasks) {
   opt.threshold = 0.3;
   opt.episode_seconds = 0.3;  // several episodes per env end within the 40 steps
   const Skeleton& skel = f.sim.skeleton();
-  Rng rng(11);
   auto reset = upright_jittered(skel);
-  MatrixXf ref;
-  for (int k = 0; k < 20; ++k) {
-    const VectorXf v = visitation_features(skel, forward_kinematics(skel, reset(rng).pose));
-    if (k == 0) ref.resize(v.size(), 20);
-    ref.col(k) = v;
-  }
+  const MatrixXf ref = random_upright_reference(skel, reset, 11);
   const BaseEvaluation whole = evaluate_base_policy(f.sim, f.policy, reset, ref, opt, f.fall());
   const PartMask legs = PartMask::parse("legs");
   opt.masks = {legs, PartMask::none()};
