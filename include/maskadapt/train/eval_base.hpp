@@ -279,8 +279,7 @@ inline nlohmann::json to_json(const VisitationResult& r) {
 }
 
 /// JSON document: options, sizes, one object per mask, and the two 5×5 upper-triangular tables
-/// (cells of masks not evaluated, and those below the diagonal, are null)
-/// (`table_rsi`, `table_shared`; null below the diagonal).
+/// (`table_rsi`, `table_shared`; null below the diagonal and for masks not evaluated).
 inline nlohmann::json to_json(const BaseEvaluation& ev) {
   nlohmann::json j;
   j["format"] = "maskadapt-eval-base";
