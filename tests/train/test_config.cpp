@@ -57,7 +57,7 @@ TEST(TrainConfig, CpuPresetIsTheWalkingRecipe) {
   EXPECT_DOUBLE_EQ(c.mask.lambda_mi, 0.3);
   EXPECT_EQ(c.mask.mi_gradient, "target_ema");
   EXPECT_DOUBLE_EQ(c.mask.mi_target_tau, 0.001);
-  EXPECT_EQ(c.mask.warmup_samples, 5529600);
+  EXPECT_EQ(c.mask.warmup_samples, 3000000);
   EXPECT_EQ(c.mask.ramp_samples, 1000000);
   EXPECT_EQ(c.mask.hidden_value, "mean");
   EXPECT_EQ(c.net.action_offset, "mean_pose");
