@@ -54,13 +54,15 @@ struct Args {
   std::vector<std::string> new_motion, masks, motions, texts;
   std::string designated = "arms", goal_parts, character;
   // Numeric values were range-checked while parsing (cli_checks.hpp); −1 means "not given".
-  int envs = -1, threads = -1, goal_trajectories = -1, sample_every = -1, noise_hold_steps = -1;
+  int envs = -1, threads = -1, goal_trajectories = -1, sample_every = -1, noise_hold_steps = -1, strike_next_box = -1;
+  bool strike_end_on_foreign_contact = false;
   std::vector<double> objective_weights;
   long long iterations = -1, seed = -1;
   double minutes = -1, switch_rate = -1, episode_seconds = -1, term_threshold = -1, tracking_reward_scale = -1, residual_std = -1, blend_resets = -1,
          location_facing_weight = -1, location_position_weight = -1, strike_approach_weight = -1, location_divergence = -1,
          location_arrive_distance = -1, location_reach_bonus = -1;
   std::vector<double> location_distance;  ///< [min, max] (m)
+  std::vector<double> strike_distance;    ///< [min, max] (m)
   std::vector<std::string> part_std;      ///< "PARTS=σ" items
   std::vector<std::string> part_objective_weights;  ///< "PARTS=w1,w2,…" items
   std::vector<Index> hidden;
@@ -142,6 +144,10 @@ tasks::AnyGoalTask<MujocoHumanoidSim> make_goal_task(const std::string& task, co
   require(task == "strike" && sim.num_objects() == 1, "no goal task '" + task + "' for this scene", {{}, {}, "--task"});
   tasks::StrikeConfig sc;
   sc.approach_weight = c.strike_approach_weight;
+  sc.min_distance = c.strike_min_distance;
+  sc.max_distance = c.strike_max_distance;
+  sc.end_on_foreign_contact = c.strike_end_on_foreign_contact;
+  sc.next_box_steps = c.strike_next_box_steps;
   sc.seed = seed;
   sc.first_env = first_env;
   sc.box_half_height = sim.objects().front().half_size.z();
@@ -286,6 +292,13 @@ void run_train_residual(const Args& a) {
     if (!a.part_objective_weights.empty())
       c.part_objective_weights = parse_part_weights(a.part_objective_weights, "--part-objective-weights");
     if (a.strike_approach_weight >= 0) c.strike_approach_weight = a.strike_approach_weight;
+    if (!a.strike_distance.empty()) {
+      require(a.strike_distance.size() == 2, "expected two values, MIN MAX (m)", {{}, {}, "--strike-distance"});
+      c.strike_min_distance = a.strike_distance[0];
+      c.strike_max_distance = a.strike_distance[1];
+    }
+    if (a.strike_end_on_foreign_contact) c.strike_end_on_foreign_contact = true;
+    if (a.strike_next_box >= 0) c.strike_next_box_steps = a.strike_next_box;
     if (!a.objective_weights.empty()) c.objective_weights = a.objective_weights;
     if (is_goal_task(c.task)) {  // the preset's goal rewards where no flag says otherwise (train/goal_recipe.hpp)
       const GoalRewards g = goal_rewards(a.preset.empty() ? "cpu" : a.preset, c.task, c.method, !c.new_motions.empty());
@@ -333,6 +346,9 @@ void run_train_residual(const Args& a) {
                               {"location_facing_weight", "--location-facing-weight"},
                               {"location_position_weight", "--location-position-weight"},
                               {"strike_approach_weight", "--strike-approach-weight"},
+                              {"strike_distance", "--strike-distance"},
+                              {"strike_end_on_foreign_contact", "--strike-end-on-foreign-contact"},
+                              {"strike_next_box_steps", "--strike-next-box"},
                               {"location_distance", "--location-distance"}, {"location_divergence", "--location-divergence"},
                               {"location_arrive_distance", "--location-arrive-distance"},
                               {"location_reach_bonus", "--location-reach-bonus"},
@@ -657,6 +673,12 @@ void run_eval(const EvalArgs& a) {
                 "episode's time limit, not counted); %d envs x %lld steps, mask %s, mean %s reward %.3f, fall rate %.3f\n",
                 task.c_str(), 100 * r.trials.rate(), 100 * r.ci_low, 100 * r.ci_high, r.trials.trials, r.trials.censored,
                 a.envs, r.steps, mask.to_string().c_str(), task.c_str(), r.mean_reward, r.fall_rate);
+    if (!r.outcomes.empty()) {
+      std::printf("trial outcomes:");
+      for (const auto& [name, n] : r.outcomes)
+        std::printf(" %s %lld (%.1f %%)", name.c_str(), n, r.trials.trials > 0 ? 100.0 * static_cast<double>(n) / static_cast<double>(r.trials.trials) : 0.0);
+      std::printf("\n");
+    }
     if (r.composed)
       std::printf("composed motion on %s: H_norm %.3f vs B, %.1f %% of frames within %.2f m per body of a frame of B\n",
                   r.composed->parts.to_string().c_str(), r.composed->h_norm, 100 * r.composed->matched,
@@ -668,6 +690,10 @@ void run_eval(const EvalArgs& a) {
     j["censored_trials"] = r.trials.censored;  // cut short by the episode's time limit, in neither count
     j["success_rate"] = r.trials.rate();
     j["ci95"] = {r.ci_low, r.ci_high};
+    if (!r.outcomes.empty()) {
+      j["trial_outcomes"] = nlohmann::json::object();
+      for (const auto& [name, n] : r.outcomes) j["trial_outcomes"][name] = n;
+    }
     j["steps"] = r.steps;
     j["mean_reward"] = r.mean_reward;
     j["fall_rate"] = std::isfinite(r.fall_rate) ? nlohmann::json(r.fall_rate) : nlohmann::json(nullptr);
@@ -816,6 +842,17 @@ const bool registered = maskadapt::cli::register_command([](CLI::App& app) {
   keep(c->add_option("--strike-approach-weight", a->strike_approach_weight,
                      "strike: weight of the approach shaping term in the reward (default 0: the paper's)"))
       ->check(probability());
+  keep(c->add_option("--strike-distance", a->strike_distance,
+                     "strike, training only: MIN MAX distance of the placed boxes (m; default 1 3, as evaluated)"))
+      ->expected(2)
+      ->check(positive_real(100.0));
+  keep(c->add_flag("--strike-end-on-foreign-contact", a->strike_end_on_foreign_contact,
+                   "strike, training only: a first contact by a body other than the hands ends the episode (ASE's rule; "
+                   "default: off, the paper's)"));
+  keep(c->add_option("--strike-next-box", a->strike_next_box,
+                     "strike, training only: a new box STEPS control steps after the box tilted (default 0: one box per "
+                     "episode, the paper's)"))
+      ->transform(non_negative_integer(100000));
   keep(c->add_option("--objective-weights", a->objective_weights,
                      "weights of the objectives' normalised advantages: one per discriminator, then the goal task's "
                      "(default: ours 1, cml 0.5 0.5, goal task 0.5)"))

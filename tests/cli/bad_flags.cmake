@@ -172,6 +172,12 @@ endforeach()
 foreach(v -1 nan inf abc 1001)
   bad(--location-reach-bonus ${v} ${R} --task location --location-reach-bonus ${v})
 endforeach()
+foreach(v 0 -1 nan abc 101)
+  bad(--strike-distance ${v} ${R} --task strike --strike-distance ${v} 2)
+endforeach()
+foreach(v -1 1.5 abc 100001)
+  bad(--strike-next-box ${v} ${R} --task strike --strike-next-box ${v})
+endforeach()
 bad(--task foo ${R} --task foo)
 bad(--method bar ${R} --method bar)
 bad(--gain big ${R} --gain big)
@@ -186,6 +192,8 @@ bad(--envs - train-residual --resume ${MISSING} --envs 4)
 bad(--task - train-residual --resume ${MISSING} --task tracking)
 bad(--residual-std - train-residual --resume ${MISSING} --residual-std 0.2)
 bad(--noise-hold-steps - train-residual --resume ${MISSING} --noise-hold-steps 5)
+bad(--strike-next-box - train-residual --resume ${MISSING} --strike-next-box 15)
+bad(--strike-end-on-foreign-contact - train-residual --resume ${MISSING} --strike-end-on-foreign-contact)
 if(HAS_MUJOCO)
   # a flag of the other task (checked once the task is known)
   bad(--term-threshold - train-residual --method scratch --task composition --new-motion kick --term-threshold 0.1
@@ -209,6 +217,15 @@ if(HAS_MUJOCO)
   bad(--location-reach-bonus - train-residual --method scratch --task strike --location-reach-bonus 5
       --iterations 1 --out ${OUT}/never)
   bad(--location-distance - train-residual --method scratch --task strike --location-distance 1 3
+      --iterations 1 --out ${OUT}/never)
+  # the strike training flags are the strike task's; boxes' MIN <= MAX
+  bad(--strike-distance - train-residual --method scratch --task location --strike-distance 0.5 2
+      --iterations 1 --out ${OUT}/never)
+  bad(--strike-distance - train-residual --method scratch --task strike --strike-distance 2 1   # max < min
+      --iterations 1 --out ${OUT}/never)
+  bad(--strike-next-box - train-residual --method scratch --task heading --strike-next-box 15
+      --iterations 1 --out ${OUT}/never)
+  bad(--strike-end-on-foreign-contact - train-residual --method scratch --task location --strike-end-on-foreign-contact
       --iterations 1 --out ${OUT}/never)
   bad(--location-distance - train-residual --method scratch --task location --location-distance 3 1   # max < min
       --iterations 1 --out ${OUT}/never)
@@ -358,8 +375,10 @@ endif()
 if(HAS_MUJOCO)
   # --keep-checkpoints keeps checkpoint_<iteration>.bin at every period (the time-to-skill curve,
   # scripts/time_to_skill.sh), and eval-base --masks evaluates only the masks named
-  good("train-base --keep-checkpoints" "done, 2 iterations" train-base --motions synthetic:walk --iterations 2
-       --checkpoint-every 1 --keep-checkpoints --threads 1 --out ${OUT}/keep)
+  # (a 512-window replay buffer: the cpu preset's 16,384 make each checkpoint 123 MB, seconds of disk per write)
+  file(WRITE ${OUT}/small_replay.json "{\"disc\": {\"replay_size\": 512}}")
+  good("train-base --keep-checkpoints" "done, 2 iterations" train-base --config ${OUT}/small_replay.json
+       --motions synthetic:walk --iterations 2 --envs 4 --checkpoint-every 1 --keep-checkpoints --threads 1 --out ${OUT}/keep)
   foreach(it 1 2)
     if(NOT EXISTS ${OUT}/keep/checkpoint_${it}.bin)
       message(FATAL_ERROR "train-base --keep-checkpoints wrote no ${OUT}/keep/checkpoint_${it}.bin")

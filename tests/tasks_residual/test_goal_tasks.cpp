@@ -416,6 +416,147 @@ TEST(StrikeTask, OnlyAStrikeWithTheHandsCounts) {
   EXPECT_EQ(strict.trials().trials, 1);
 }
 
+namespace {
+// The count of one named outcome in `o` (-1 if absent).
+long long outcome(const tasks::TrialOutcomes& o, const std::string& name) {
+  for (const auto& [n, k] : o)
+    if (n == name) return k;
+  return -1;
+}
+}  // namespace
+
+TEST(StrikeTask, TrialOutcomesCountEachEndedTrialOnceInOrderOfPrecedence) {
+  TinySceneSim sim(1);
+  tasks::StrikeConfig c;
+  c.strike_bodies = {2, 3};
+  tasks::StrikeTask task(c, 1);
+  const Quat fallen(Eigen::AngleAxisd(M_PI / 2, Vec3::UnitY()));
+  // one trial per case: (first contact flags, box tilted, how the episode ends)
+  struct Case { ContactFlags flags; bool tilt; tasks::EpisodeEnd end; const char* outcome; };
+  const Case cases[] = {
+      {{0, 0, 1, 0, 0, 0}, true, tasks::EpisodeEnd::time_limit, "struck"},
+      {{0, 0, 0, 0, 1, 0}, true, tasks::EpisodeEnd::time_limit, "tilted_other_first"},
+      {{0, 0, 0, 0, 1, 0}, true, tasks::EpisodeEnd::terminated, "tilted_other_first"},  // (the tilt first)
+      {{0, 0, 1, 0, 0, 0}, false, tasks::EpisodeEnd::terminated, "fell"},
+      {{0, 0, 0, 1, 0, 0}, false, tasks::EpisodeEnd::time_limit, "hands_no_tilt"},
+      {{1, 0, 0, 0, 0, 0}, false, tasks::EpisodeEnd::time_limit, "other_no_tilt"},
+      {{0, 0, 0, 0, 0, 0}, false, tasks::EpisodeEnd::time_limit, "untouched"},
+      {{0, 0, 0, 0, 0, 0}, false, tasks::EpisodeEnd::time_limit, "untouched"},
+  };
+  for (const Case& k : cases) {
+    task.new_episode(sim, 0);
+    sim.flags_[0] = k.flags;
+    sim.boxes_[0].rot = k.tilt ? fallen : Quat::Identity();
+    task.after_step(sim, 0, tasks::EpisodeEnd::none);
+    task.after_step(sim, 0, k.end);
+  }
+  const tasks::TrialOutcomes o = task.trial_outcomes();
+  ASSERT_EQ(o.size(), 6u);
+  EXPECT_EQ(outcome(o, "struck"), 1);
+  EXPECT_EQ(outcome(o, "tilted_other_first"), 2);
+  EXPECT_EQ(outcome(o, "fell"), 1);
+  EXPECT_EQ(outcome(o, "hands_no_tilt"), 1);
+  EXPECT_EQ(outcome(o, "other_no_tilt"), 1);
+  EXPECT_EQ(outcome(o, "untouched"), 2);
+  long long sum = 0;
+  for (const auto& [n, k] : o) sum += k;
+  EXPECT_EQ(sum, task.trials().trials);
+  EXPECT_EQ(task.trials().successes, 1);
+  // the type-erased task reports them; a task without outcomes reports none
+  tasks::AnyGoalTask<TinySceneSim> any = task;
+  EXPECT_EQ(any.trial_outcomes(), o);
+  any.clear_trials();
+  EXPECT_EQ(outcome(any.trial_outcomes(), "untouched"), 0);
+  EXPECT_TRUE(tasks::AnyGoalTask<TinyWalkerSim>(tasks::LocationTask(tasks::LocationConfig{}, 1)).trial_outcomes().empty());
+  // a trial ended by end_on_foreign_contact is other_no_tilt
+  c.end_on_foreign_contact = true;
+  tasks::StrikeTask strict(c, 1);
+  strict.new_episode(sim, 0);
+  sim.boxes_[0].rot = Quat::Identity();
+  sim.flags_[0] = {0, 0, 0, 0, 0, 1};
+  EXPECT_TRUE(strict.after_step(sim, 0, tasks::EpisodeEnd::none).terminate);
+  EXPECT_EQ(outcome(strict.trial_outcomes(), "other_no_tilt"), 1);
+}
+
+namespace {
+// The least an `advance_goal` needs of an imitation task: which envs ended, and a restart.
+struct TinyImitation {
+  TinySceneSim& s;
+  std::vector<std::uint8_t> term = {0}, trunc = {0};
+  int restarts = 0;
+  const std::vector<std::uint8_t>& terminated() const { return term; }
+  const std::vector<std::uint8_t>& truncated() const { return trunc; }
+  TinySceneSim& sim() { return s; }
+  void restart_env(Index) { ++restarts; }
+};
+}  // namespace
+
+TEST(StrikeTask, NextBoxClosesTheTrialKStepsAfterTheTiltAndPlacesANewBoxWithoutAReset) {
+  TinySceneSim sim(1);
+  tasks::StrikeConfig c;
+  c.strike_bodies = {2, 3};
+  c.next_box_steps = 3;
+  tasks::AnyGoalTask<TinySceneSim> goal = tasks::StrikeTask(c, 1);
+  TinyImitation im{sim};
+  goal.new_episode(sim, 0);
+  const Vec3 first_box = sim.boxes_[0].pos;
+  sim.flags_[0] = {0, 0, 1, 0, 0, 0};  // the left arm strikes ...
+  tasks::advance_goal(goal, im, 0);
+  sim.flags_[0] = {0, 0, 0, 0, 0, 0};
+  sim.boxes_[0].rot = Quat(Eigen::AngleAxisd(M_PI / 2, Vec3::UnitX()));  // ... and the box falls
+  for (int k = 1; k <= 2; ++k) {  // steps 1 and 2 after the tilt: the trial goes on
+    tasks::advance_goal(goal, im, 0);
+    EXPECT_EQ(goal.trials().trials, 0) << k;
+    EXPECT_EQ(sim.boxes_[0].pos, first_box) << k;
+  }
+  const tasks::GoalOutcome o = tasks::advance_goal(goal, im, 0);  // step 3: closed, a new box
+  EXPECT_FALSE(o.terminated);
+  EXPECT_FALSE(o.truncated);
+  EXPECT_EQ(im.restarts, 0);  // the env goes on
+  EXPECT_EQ(goal.trials().trials, 1);
+  EXPECT_EQ(goal.trials().successes, 1);
+  EXPECT_NE(sim.boxes_[0].pos, first_box);
+  EXPECT_NEAR(tasks::box_uprightness(sim.boxes_[0].rot), 1.0, 1e-12);
+  EXPECT_EQ(goal.as<tasks::StrikeTask>()->first_contact(0), tasks::FirstContact::None);
+  EXPECT_FALSE(goal.as<tasks::StrikeTask>()->success(0));
+  // k = 0 (the paper's): a tilted box stays until the episode ends
+  c.next_box_steps = 0;
+  tasks::StrikeTask one(c, 1);
+  one.new_episode(sim, 0);
+  sim.flags_[0] = {0, 0, 1, 0, 0, 0};
+  sim.boxes_[0].rot = Quat(Eigen::AngleAxisd(M_PI / 2, Vec3::UnitX()));
+  for (int k = 0; k < 50; ++k) EXPECT_FALSE(one.after_step(sim, 0, tasks::EpisodeEnd::none).next_goal);
+  EXPECT_EQ(one.trials().trials, 0);
+  c.next_box_steps = -1;
+  expect_error_naming([&] { c.validate(); }, "strike.next_box_steps", "a negative count");
+}
+
+TEST(StrikeTask, SaveAndLoadKeepTheStepsSinceTheTilt) {
+  TinySceneSim sim(1);
+  tasks::StrikeConfig c;
+  c.strike_bodies = {2, 3};
+  c.next_box_steps = 4;
+  tasks::StrikeTask a(c, 1), b(c, 1), old(c, 1);
+  a.new_episode(sim, 0);
+  sim.flags_[0] = {0, 0, 1, 0, 0, 0};
+  sim.boxes_[0].rot = Quat(Eigen::AngleAxisd(M_PI / 2, Vec3::UnitX()));
+  a.after_step(sim, 0, tasks::EpisodeEnd::none);  // tilted: 1 step counted
+  a.after_step(sim, 0, tasks::EpisodeEnd::none);  // 2
+  Checkpoint ck;
+  a.save(ck, "g/");
+  b.load(ck, "g/");
+  EXPECT_FALSE(b.after_step(sim, 0, tasks::EpisodeEnd::none).next_goal);  // 3
+  EXPECT_TRUE(b.after_step(sim, 0, tasks::EpisodeEnd::none).next_goal);   // 4: as a would
+  EXPECT_FALSE(a.after_step(sim, 0, tasks::EpisodeEnd::none).next_goal);
+  EXPECT_TRUE(a.after_step(sim, 0, tasks::EpisodeEnd::none).next_goal);
+  // a checkpoint written before next_box_steps existed has no count: it starts from 0
+  Checkpoint before = ck;
+  before.erase("g/since_tilt");
+  old.load(before, "g/");
+  for (int k = 1; k < 4; ++k) EXPECT_FALSE(old.after_step(sim, 0, tasks::EpisodeEnd::none).next_goal) << k;
+  EXPECT_TRUE(old.after_step(sim, 0, tasks::EpisodeEnd::none).next_goal);
+}
+
 TEST(StrikeTask, PlacesTheBoxUprightAtRestWithinTheDistanceRange) {
   TinySceneSim sim(3);
   tasks::StrikeConfig c;

@@ -1056,6 +1056,50 @@ TEST(ResidualConfig, KeepsTheLocationArriveDistanceAndReachBonusAndRefusesThemEl
   bad([](ResidualTrainConfig& b) { b.task = "strike"; b.location_arrive_distance = 0; }, "location_reach_bonus");
 }
 
+TEST(ResidualConfig, KeepsTheStrikeTrainingOptionsAndRefusesThemElsewhere) {
+  ResidualTrainConfig c;
+  c.task = "strike";
+  c.strike_min_distance = 0.5;
+  c.strike_max_distance = 2.0;
+  c.strike_end_on_foreign_contact = true;
+  c.strike_next_box_steps = 15;
+  c.validate();
+  const auto back = residual_config_from_json(to_json(c));
+  EXPECT_EQ(back.strike_min_distance, 0.5);
+  EXPECT_EQ(back.strike_max_distance, 2.0);
+  EXPECT_TRUE(back.strike_end_on_foreign_contact);
+  EXPECT_EQ(back.strike_next_box_steps, 15);
+  nlohmann::json old = to_json(c);  // written before the fields existed: the paper's setting
+  old.erase("strike_distance");
+  old.erase("strike_end_on_foreign_contact");
+  old.erase("strike_next_box_steps");
+  const auto o = residual_config_from_json(old);
+  EXPECT_EQ(o.strike_min_distance, 1.0);
+  EXPECT_EQ(o.strike_max_distance, 3.0);
+  EXPECT_FALSE(o.strike_end_on_foreign_contact);
+  EXPECT_EQ(o.strike_next_box_steps, 0);
+  nlohmann::json three = to_json(c);
+  three["strike_distance"] = {1.0, 2.0, 3.0};
+  expect_error_naming([&] { residual_config_from_json(three); }, "strike_distance", "three distances");
+  auto bad = [&](auto edit, const char* field) {
+    ResidualTrainConfig b = c;
+    edit(b);
+    expect_error_naming([&] { b.validate(); }, field, field);
+  };
+  bad([](ResidualTrainConfig& b) { b.strike_min_distance = 0; }, "strike_distance");
+  bad([](ResidualTrainConfig& b) { b.strike_min_distance = 2.5; }, "strike_distance");  // above max
+  bad([](ResidualTrainConfig& b) { b.strike_max_distance = std::nan(""); }, "strike_distance");
+  bad([](ResidualTrainConfig& b) { b.strike_next_box_steps = -1; }, "strike_next_box_steps");
+  bad([](ResidualTrainConfig& b) { b.strike_next_box_steps = 100001; }, "strike_next_box_steps");
+  bad([](ResidualTrainConfig& b) { b.task = "location"; b.strike_min_distance = 1; b.strike_max_distance = 3;
+                                   b.strike_next_box_steps = 0; b.strike_end_on_foreign_contact = false;
+                                   b.strike_min_distance = 0.5; }, "strike_distance");
+  bad([](ResidualTrainConfig& b) { b.task = "heading"; b.strike_min_distance = 1; b.strike_max_distance = 3;
+                                   b.strike_next_box_steps = 0; }, "strike_end_on_foreign_contact");
+  bad([](ResidualTrainConfig& b) { b.task = "location"; b.strike_min_distance = 1; b.strike_max_distance = 3;
+                                   b.strike_end_on_foreign_contact = false; }, "strike_next_box_steps");
+}
+
 TEST(ResidualConfig, KeepsTheBlendResetShareThroughJsonAndRejectsBadValues) {
   ResidualTrainConfig c;
   c.blend_resets = 0.5;

@@ -31,6 +31,15 @@
 /// counting only the cut trials that had already succeeded would bias it upward. A fall ends the
 /// trial as a failure. (Strike's trial is the episode: its time limit is the trial's own end.)
 ///
+/// Optional: `ct.trial_outcomes()` → `TrialOutcomes`, how the ended trials ended, one count per
+/// named outcome (strike: struck, tilted by another body, fell, …), cleared with the trials; a
+/// task without it reports none. Evaluation prints them beside the success rate and training
+/// logs them, so a low success rate comes with its reason.
+///
+/// A task may also close a trial and ask for the next goal within an episode
+/// (`GoalStep::next_goal`): `advance_goal` then calls `new_episode` for that env without
+/// resetting it (strike's `next_box_steps` places a new box this way).
+///
 /// `AnyGoalTask<Sim>` type-erases a task so a run can pick one at run time (CLI `--task`).
 #include <maskadapt/core/checkpoint.hpp>
 #include <maskadapt/core/error.hpp>
@@ -43,6 +52,7 @@
 #include <cstdint>
 #include <memory>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace maskadapt::tasks {
@@ -58,7 +68,12 @@ enum class EpisodeEnd : std::uint8_t {
 struct GoalStep {
   float reward = 0.0f;     ///< the task's reward row for this step
   bool terminate = false;  ///< the task ends the episode (the trainer resets the env)
+  bool next_goal = false;  ///< the task closed its trial: draw the next goal now (`new_episode`, env not reset)
 };
+
+/// How ended trials ended: (outcome name, count) in the task's own order; the counts sum to the
+/// trials ended (`TrialCounter::trials`).
+using TrialOutcomes = std::vector<std::pair<std::string, long long>>;
 
 /// Ended trials and successes; `censored`: trials the episode's time limit cut short, counted in
 /// neither (see "Trials" above).
@@ -121,6 +136,8 @@ class AnyGoalTask {
   void goal(const Sim& sim, Index e, Eigen::Ref<VectorXf> g) const { get().goal(sim, e, g); }
   GoalStep after_step(const Sim& sim, Index e, EpisodeEnd end) { return get().after_step(sim, e, end); }
   const TrialCounter& trials() const { return get().trials(); }
+  /// The task's `trial_outcomes()`, or none if it has no such member.
+  TrialOutcomes trial_outcomes() const { return get().trial_outcomes(); }
   void clear_trials() { get().clear_trials(); }
   void save(Checkpoint& c, const std::string& prefix) const { get().save(c, prefix); }
   void load(const Checkpoint& c, const std::string& prefix) { get().load(c, prefix); }
@@ -142,6 +159,7 @@ class AnyGoalTask {
     virtual void goal(const Sim& sim, Index e, Eigen::Ref<VectorXf> g) const = 0;
     virtual GoalStep after_step(const Sim& sim, Index e, EpisodeEnd end) = 0;
     virtual const TrialCounter& trials() const = 0;
+    virtual TrialOutcomes trial_outcomes() const = 0;
     virtual void clear_trials() = 0;
     virtual void save(Checkpoint& c, const std::string& prefix) const = 0;
     virtual void load(const Checkpoint& c, const std::string& prefix) = 0;
@@ -157,6 +175,12 @@ class AnyGoalTask {
     void goal(const Sim& sim, Index e, Eigen::Ref<VectorXf> g) const override { task.goal(sim, e, g); }
     GoalStep after_step(const Sim& sim, Index e, EpisodeEnd end) override { return task.after_step(sim, e, end); }
     const TrialCounter& trials() const override { return task.trials(); }
+    TrialOutcomes trial_outcomes() const override {
+      if constexpr (requires { { task.trial_outcomes() } -> std::convertible_to<TrialOutcomes>; })
+        return task.trial_outcomes();
+      else
+        return {};
+    }
     void clear_trials() override { task.clear_trials(); }
     void save(Checkpoint& c, const std::string& prefix) const override { task.save(c, prefix); }
     void load(const Checkpoint& c, const std::string& prefix) override { task.load(c, prefix); }
@@ -179,8 +203,8 @@ struct GoalOutcome {
 };
 
 /// The goal task's side of one env's step, the same in training and evaluation: its reward; if
-/// it ends the episode, the env is restarted; when the episode ended (either way) the goal task
-/// starts the next one (new goal, scene objects placed).
+/// it ends the episode, the env is restarted; when the episode ended (either way), or the task
+/// asked for its next goal, the goal task draws it (`new_episode`: new goal, scene objects placed).
 template <Simulator Sim, class ImitationLike>
 GoalOutcome advance_goal(AnyGoalTask<Sim>& goal, ImitationLike& task, Index e) {
   const auto u = static_cast<std::size_t>(e);
@@ -194,7 +218,7 @@ GoalOutcome advance_goal(AnyGoalTask<Sim>& goal, ImitationLike& task, Index e) {
     task.restart_env(e);
     o.terminated = o.by_goal_task = true;
   }
-  if (o.terminated || o.truncated) goal.new_episode(task.sim(), e);
+  if (o.terminated || o.truncated || g.next_goal) goal.new_episode(task.sim(), e);
   return o;
 }
 

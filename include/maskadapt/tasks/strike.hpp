@@ -22,10 +22,22 @@
 ///    found the box gets no gradient toward it.
 ///    With `end_on_foreign_contact`, a first contact by any other body ends the episode (ASE's
 ///    strike task does this); off by default, as the paper lets other bodies touch the box.
+///  - training only, `next_box_steps` k > 0 (not the paper's; ASE and CML change goals several
+///    times an episode): k control steps after the box tilted past the success angle the trial
+///    closes (a success if the hands touched first) and a new box is placed, as at an episode's
+///    start but from where the character now is (`GoalStep::next_goal`). With k = 0 (the default,
+///    and always in evaluation) a tilted box lies there until the episode ends, and every step
+///    after the tilt earns the same reward whatever the policy does.
+///  - trial outcomes (`trial_outcomes()`, for the logs and `eval-residual`), each ended trial
+///    counted once, in this order of precedence: `struck` (the success), `tilted_other_first`
+///    (the box tilted, but another body touched it first), `fell` (a fall ended it, box upright),
+///    `hands_no_tilt`, `other_no_tilt` (touched first by the hands / by another body, still
+///    upright; a trial ended by `end_on_foreign_contact` is `other_no_tilt`), `untouched`.
 #include <maskadapt/humanoid/observation.hpp>
 #include <maskadapt/sim/scene.hpp>
 #include <maskadapt/tasks/goal_task.hpp>
 
+#include <array>
 #include <cmath>
 #include <string>
 #include <vector>
@@ -42,6 +54,7 @@ struct StrikeConfig {
   double approach_weight = 0.0;    ///< w of the approach shaping term (0: the paper's reward)
   double approach_speed = 1.0;     ///< v* of the approach term (m/s)
   double reach = 1.0;              ///< approach = 1 within this horizontal distance of the box (m)
+  int next_box_steps = 0;          ///< training only: a new box this many steps after a tilt (0: one box per episode)
   std::uint64_t seed = 1;
   /// Global index of env 0: env e draws from the stream of env first_env + e (a distributed run's
   /// rank offset, so each env has its one-process stream; train/distributed.hpp).
@@ -56,6 +69,8 @@ struct StrikeConfig {
             {{}, {}, "strike.approach_weight"});
     require(approach_speed > 0 && reach > 0, "approach_speed and reach must be > 0", {{}, {}, "strike.approach"});
     require(!strike_bodies.empty(), "strike needs at least one strike body (the hands)", {{}, {}, "strike.strike_bodies"});
+    require(next_box_steps >= 0 && next_box_steps <= 100000, "must be in [0, 100000] steps (0: one box per episode)",
+            {{}, {}, "strike.next_box_steps"});
   }
 };
 
@@ -116,6 +131,7 @@ class StrikeTask {
     const auto n = static_cast<std::size_t>(num_envs);
     first_.assign(n, FirstContact::None);
     tilted_.assign(n, 0);
+    since_tilt_.assign(n, 0);
     last_reward_.assign(n, 0.0f);
   }
   std::string name() const { return "strike"; }
@@ -136,6 +152,7 @@ class StrikeTask {
     sim.place_object(idx(e), c_.object, box);
     first_[idx(e)] = FirstContact::None;
     tilted_[idx(e)] = 0;
+    since_tilt_[idx(e)] = 0;
   }
   template <SceneSimulator Sim>
   void goal(const Sim& sim, Index e, Eigen::Ref<VectorXf> g) const {
@@ -145,8 +162,8 @@ class StrikeTask {
   template <SceneSimulator Sim>
   GoalStep after_step(const Sim& sim, Index e, EpisodeEnd end) {
     const auto u = idx(e);
-    if (end != EpisodeEnd::none) {  // the trial is the episode: its time limit is the trial's end
-      trials_.add(success(e));
+    if (end != EpisodeEnd::none) {  // the trial ends with the episode: its time limit is the trial's end
+      close_trial(u, end == EpisodeEnd::terminated);
       return {last_reward_[u], false};
     }
     const RigidState& box = sim.object_state(u, c_.object);
@@ -156,8 +173,12 @@ class StrikeTask {
     const double approach = strike_approach(b.pos.col(0), b.rot[0], b.lin_vel.col(0), box.pos, tilted_[u] != 0, c_);
     last_reward_[u] = static_cast<float>(strike_reward(box.rot, approach, c_));  // (w = 0: exactly 1 − u·u_box)
     if (c_.end_on_foreign_contact && first_[u] == FirstContact::Foreign) {
-      trials_.add(false);
+      close_trial(u, false);
       return {last_reward_[u], true};
+    }
+    if (c_.next_box_steps > 0 && tilted_[u] != 0 && ++since_tilt_[u] >= c_.next_box_steps) {
+      close_trial(u, false);
+      return {last_reward_[u], false, true};  // the next box: new_episode, the env goes on
     }
     return {last_reward_[u], false};
   }
@@ -177,7 +198,18 @@ class StrikeTask {
     return strike ? FirstContact::Strike : other ? FirstContact::Foreign : FirstContact::None;
   }
   const TrialCounter& trials() const { return trials_; }
-  void clear_trials() { trials_ = {}; }
+  /// How the trials since clear_trials() ended (see the file comment).
+  TrialOutcomes trial_outcomes() const {
+    static constexpr const char* kNames[kOutcomes] = {"struck", "tilted_other_first", "fell",
+                                                      "hands_no_tilt", "other_no_tilt", "untouched"};
+    TrialOutcomes out;
+    for (std::size_t k = 0; k < kOutcomes; ++k) out.emplace_back(kNames[k], outcomes_[k]);
+    return out;
+  }
+  void clear_trials() {
+    trials_ = {};
+    outcomes_ = {};
+  }
 
   void save(Checkpoint& c, const std::string& prefix) const {
     const auto n = static_cast<Index>(first_.size());
@@ -191,6 +223,9 @@ class StrikeTask {
     c.put(prefix + "first_contact", f);
     c.put(prefix + "tilted", t);
     c.put(prefix + "last_reward", lr);
+    VectorX<std::int64_t> st(n);
+    for (Index e = 0; e < n; ++e) st[e] = since_tilt_[idx(e)];
+    c.put(prefix + "since_tilt", st);
     save_streams(c, prefix, rngs_);
   }
   void load(const Checkpoint& c, const std::string& prefix) {
@@ -199,8 +234,12 @@ class StrikeTask {
     const auto lr = c.get_vector<float>(prefix + "last_reward", n);
     for (Index e = 0; e < n; ++e)
       require(f[e] >= 0 && f[e] <= 2, "first-contact code out of range", {c.source(), std::nullopt, prefix + "first_contact"});
+    // (absent before next_box_steps existed, when it was always 0)
+    const auto st = c.contains(prefix + "since_tilt") ? c.get_vector<std::int64_t>(prefix + "since_tilt", n)
+                                                       : VectorX<std::int64_t>::Zero(n).eval();
     load_streams(c, prefix, rngs_);
     for (Index e = 0; e < n; ++e) {
+      since_tilt_[idx(e)] = static_cast<int>(st[e]);
       first_[idx(e)] = static_cast<FirstContact>(f[e]);
       tilted_[idx(e)] = static_cast<std::uint8_t>(t[e] != 0);
       last_reward_[idx(e)] = lr[e];
@@ -208,13 +247,24 @@ class StrikeTask {
   }
 
  private:
+  static constexpr std::size_t kOutcomes = 6;
   static std::size_t idx(Index e) { return static_cast<std::size_t>(e); }
+  /// Counts env u's trial (`fell`: a fall ended it) under its outcome (see the file comment).
+  void close_trial(std::size_t u, bool fell) {
+    const bool ok = tilted_[u] != 0 && first_[u] == FirstContact::Strike;
+    trials_.add(ok);
+    const std::size_t k = ok ? 0 : tilted_[u] != 0 ? 1 : fell ? 2 : first_[u] == FirstContact::Strike ? 3
+                                   : first_[u] == FirstContact::Foreign ? 4 : 5;
+    ++outcomes_[k];
+  }
   StrikeConfig c_;
   std::vector<Rng> rngs_;
   std::vector<FirstContact> first_;
   std::vector<std::uint8_t> tilted_;
+  std::vector<int> since_tilt_;  ///< control steps since the box tilted (next_box_steps)
   std::vector<float> last_reward_;
   TrialCounter trials_;
+  std::array<long long, kOutcomes> outcomes_{};
 };
 
 }  // namespace maskadapt::tasks

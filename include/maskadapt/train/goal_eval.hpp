@@ -59,6 +59,7 @@ struct ComposedMotionMeasure {
 struct GoalEvalResult {
   std::string task;
   tasks::TrialCounter trials;
+  tasks::TrialOutcomes outcomes;   ///< how the trials ended, where the task says (tasks/goal_task.hpp)
   double ci_low = 0, ci_high = 1;  ///< Wilson 95 % interval of the success rate
   double mean_reward = 0;          ///< the goal task's reward, mean over env-steps
   double fall_rate = NAN;          ///< falls / ended episodes
@@ -121,6 +122,7 @@ GoalEvalResult evaluate_goal_task(Sim& sim, const Policy& policy, tasks::AnyGoal
               " steps (need " + std::to_string(opt.min_trials) + "; raise the step budget or the env count)",
           {{}, {}, "max_steps"});
   r.trials = goal.trials();
+  r.outcomes = goal.trial_outcomes();
   std::tie(r.ci_low, r.ci_high) = r.trials.wilson95();
   r.steps = t;
   r.mean_reward = reward_sum / static_cast<double>(t * N);

@@ -80,6 +80,15 @@ struct ResidualTrainConfig {
   /// strike: weight w of the approach shaping term (tasks::StrikeConfig::approach_weight; 0 = the
   /// paper's reward)
   double strike_approach_weight = 0.0;
+  /// strike, training only: boxes placed this far from the root (m; tasks::StrikeConfig's
+  /// min/max_distance; evaluation always places them 1–3 m away, the paper's)
+  double strike_min_distance = 1.0, strike_max_distance = 3.0;
+  /// strike, training only: a first contact by a body other than the hands ends the episode
+  /// (tasks::StrikeConfig::end_on_foreign_contact; ASE's rule; false = the paper's)
+  bool strike_end_on_foreign_contact = false;
+  /// strike, training only: a new box this many control steps after the box tilted
+  /// (tasks::StrikeConfig::next_box_steps; 0 = one box per episode, the paper's)
+  int strike_next_box_steps = 0;
   // tracking
   std::string designated = "arms";    ///< parts that follow the generated trajectory
   std::vector<std::string> texts;     ///< prompts sampled for the goals; empty: the generator's arms pool (else the clips')
@@ -159,6 +168,17 @@ struct ResidualTrainConfig {
             "must be in [0, 1]", {{}, {}, "strike_approach_weight"});
     require(strike_approach_weight == 0 || task == "strike",
             "the approach shaping term is the strike task's, not " + task + "'s", {{}, {}, "strike_approach_weight"});
+    require(std::isfinite(strike_min_distance) && std::isfinite(strike_max_distance) && strike_min_distance > 0 &&
+                strike_max_distance >= strike_min_distance && strike_max_distance <= 100,
+            "need 0 < min <= max <= 100 m", {{}, {}, "strike_distance"});
+    require(task == "strike" || (strike_min_distance == 1.0 && strike_max_distance == 3.0),
+            "box distances are the strike task's, not " + task + "'s", {{}, {}, "strike_distance"});
+    require(!strike_end_on_foreign_contact || task == "strike",
+            "the foreign-contact termination is the strike task's, not " + task + "'s", {{}, {}, "strike_end_on_foreign_contact"});
+    require(strike_next_box_steps >= 0 && strike_next_box_steps <= 100000, "must be in [0, 100000] steps (0 = off)",
+            {{}, {}, "strike_next_box_steps"});
+    require(strike_next_box_steps == 0 || task == "strike",
+            "the next box is the strike task's, not " + task + "'s", {{}, {}, "strike_next_box_steps"});
     for (const double w : objective_weights)
       require(std::isfinite(w) && w >= 0, "every objective weight must be finite and ≥ 0", {{}, {}, "objective_weights"});
     for (std::size_t p = 0; p < part_objective_weights.size(); ++p)
@@ -317,6 +337,9 @@ inline nlohmann::json to_json(const ResidualTrainConfig& c) {
           {"location_arrive_distance", c.location_arrive_distance},
           {"location_reach_bonus", c.location_reach_bonus},
           {"strike_approach_weight", c.strike_approach_weight},
+          {"strike_distance", {c.strike_min_distance, c.strike_max_distance}},
+          {"strike_end_on_foreign_contact", c.strike_end_on_foreign_contact},
+          {"strike_next_box_steps", c.strike_next_box_steps},
           {"designated", c.designated},
           {"texts", c.texts},
           {"goal_parts", c.goal_parts},
@@ -361,6 +384,13 @@ inline ResidualTrainConfig residual_config_from_json(const nlohmann::json& j, co
     c.location_arrive_distance = j.value("location_arrive_distance", 0.0);  // (absent before it existed: off)
     c.location_reach_bonus = j.value("location_reach_bonus", 0.0);          // (absent before it existed: off)
     c.strike_approach_weight = j.value("strike_approach_weight", 0.0);  // (absent before it existed: the paper's reward)
+    // (the three below absent before they existed: the paper's 1–3 m, other bodies may touch, one box per episode)
+    const auto sdist = j.value("strike_distance", std::vector<double>{1.0, 3.0});
+    if (sdist.size() != 2) throw Error("expected [min, max] (m)", {file, std::nullopt, "strike_distance"});
+    c.strike_min_distance = sdist[0];
+    c.strike_max_distance = sdist[1];
+    c.strike_end_on_foreign_contact = j.value("strike_end_on_foreign_contact", false);
+    c.strike_next_box_steps = j.value("strike_next_box_steps", 0);
     c.designated = j.at("designated");
     c.texts = j.value("texts", std::vector<std::string>());  // (absent before it was recorded: the pool)
     c.goal_parts = j.value("goal_parts", std::string());  // (absent before goal parts existed: none)

@@ -220,6 +220,12 @@ class ResidualTrainer {
         st.extra["trials"] = static_cast<double>(tr.trials);
         st.extra["success_rate"] = tr.rate();
       }
+      // how the trials ended, where the task says (strike: struck, fell, untouched, ...)
+      const tasks::TrialOutcomes outcomes = setup_.goal.trial_outcomes();
+      std::vector<double> oc;
+      for (const auto& [name, n] : outcomes) oc.push_back(static_cast<double>(n));
+      if (distributed() && !oc.empty()) comm_->all_reduce_sum(std::span<double>(oc));
+      for (std::size_t k = 0; k < oc.size(); ++k) st.extra["trials_" + outcomes[k].first] = oc[k];
     }
     Stopwatch upd;
     Stopwatch disc_rewards;
