@@ -472,7 +472,7 @@ void add_scene_frame(eval::RolloutScene& scene, tasks::AnyGoalTask<MujocoHumanoi
 #endif
 
 struct PlayArgs {
-  std::string checkpoint, mask_schedule = "0:lower_body", text, bvh, rollout, generator;
+  std::string checkpoint, mask_schedule, text, bvh, rollout, generator;  ///< mask_schedule "": the run's first training mask
   double seconds = 10.0;
   long long seed = 1;
   std::vector<std::string> composition_only, tracking_only;  ///< such flags given on the command line
@@ -494,8 +494,12 @@ void run_play(const PlayArgs& a, const std::string& command_line) {
   const PartMask designated = PartMask::parse(c.designated);
   const bool tracking_task = c.task == "tracking";
   require_task_flags(tracking_task ? a.composition_only : a.tracking_only, c.task, tracking_task ? "composition" : "tracking");
-  // the mask the policy runs with: tracking adapts the designated parts; scratch drives every DoF
-  const std::string mask_spec = c.method == "scratch" ? "0:all" : tracking_task ? "0:" + designated.to_string() : a.mask_schedule;
+  // the mask the policy runs with: tracking adapts the designated parts; scratch drives every DoF;
+  // else --mask-schedule, by default the run's first training mask (as eval-residual)
+  const std::string mask_spec = c.method == "scratch" ? "0:all"
+                                : tracking_task        ? "0:" + designated.to_string()
+                                : !a.mask_schedule.empty() ? a.mask_schedule
+                                                           : "0:" + PartMask::parse(c.masks.front(), "masks").to_string();
   const auto schedule = MaskSampler::scheduled(mask_spec);
   auto lib = load_motion_library(c.rl.env.motions, data_dir(), character);
   Rng rng(static_cast<std::uint64_t>(a.seed));
@@ -901,7 +905,8 @@ const bool registered = maskadapt::cli::register_command([](CLI::App& app) {
   auto p = std::make_shared<PlayArgs>();
   CLI::App* q = app.add_subcommand("play-residual", "Run a residual checkpoint with a mask or text schedule, export BVH");
   q->add_option("checkpoint", p->checkpoint, "train-residual checkpoint")->required();
-  q->add_option("--mask-schedule", p->mask_schedule, "e.g. \"0:lower_body,5:upper_body\"")
+  q->add_option("--mask-schedule", p->mask_schedule,
+                "e.g. \"0:lower_body,5:upper_body\" (default: the run's first training mask throughout)")
       ->check(parsed_by([](const std::string& t) { (void)MaskSampler::scheduled(parse_mask_schedule(t, "--mask-schedule")); },
                         "SCHEDULE"));
   q->add_option("--text", p->text, "tracking: e.g. \"0:wave hands,5:raise arms\"")
@@ -918,7 +923,7 @@ const bool registered = maskadapt::cli::register_command([](CLI::App& app) {
     std::string cmd = "maskadapt play-residual " + p->checkpoint + " --seconds " + std::to_string(p->seconds) +
                       " --seed " + std::to_string(p->seed);
     if (!p->text.empty()) cmd += " --text \"" + p->text + "\"";
-    else cmd += " --mask-schedule \"" + p->mask_schedule + "\"";
+    else if (!p->mask_schedule.empty()) cmd += " --mask-schedule \"" + p->mask_schedule + "\"";
     run_play(*p, cmd);
   });
 

@@ -172,6 +172,16 @@ foreach(task location strike)
   if(NOT n EQUAL 30)
     message(FATAL_ERROR "play_${task}.json: ${n} scene frames, expected 30")
   endif()
+  # without --mask-schedule it runs with the run's first training mask (location: the default
+  # lower_body; strike: the arms)
+  string(JSON schedule GET "${j}" metadata mask_schedule)
+  set(want "0:left_leg,right_leg")
+  if(task STREQUAL "strike")
+    set(want "0:left_arm,right_arm")
+  endif()
+  if(NOT schedule STREQUAL want)
+    message(FATAL_ERROR "play_${task}.json: mask schedule '${schedule}', expected the first training mask '${want}'")
+  endif()
 endforeach()
 # AdaptNet (the goal tasks' third method) trains and evaluates through the same commands
 run("train-residual adaptnet" train-residual --task heading --method adaptnet --base ${BASE} --iterations 1 ${tiny}
