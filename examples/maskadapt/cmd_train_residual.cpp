@@ -55,7 +55,7 @@ struct Args {
   std::string designated = "arms", goal_parts, character;
   // Numeric values were range-checked while parsing (cli_checks.hpp); −1 means "not given".
   int envs = -1, threads = -1, goal_trajectories = -1, sample_every = -1, noise_hold_steps = -1, strike_next_box = -1;
-  bool strike_end_on_foreign_contact = false;
+  int strike_end_on_foreign_contact = 0;  ///< +1 given, -1 its --no- form, 0 neither (the preset's)
   std::vector<double> objective_weights;
   long long iterations = -1, seed = -1;
   double minutes = -1, switch_rate = -1, episode_seconds = -1, term_threshold = -1, tracking_reward_scale = -1, residual_std = -1, blend_resets = -1,
@@ -297,7 +297,7 @@ void run_train_residual(const Args& a) {
       c.strike_min_distance = a.strike_distance[0];
       c.strike_max_distance = a.strike_distance[1];
     }
-    if (a.strike_end_on_foreign_contact) c.strike_end_on_foreign_contact = true;
+    if (a.strike_end_on_foreign_contact != 0) c.strike_end_on_foreign_contact = a.strike_end_on_foreign_contact > 0;
     if (a.strike_next_box >= 0) c.strike_next_box_steps = a.strike_next_box;
     if (!a.objective_weights.empty()) c.objective_weights = a.objective_weights;
     if (is_goal_task(c.task)) {  // the preset's goal rewards where no flag says otherwise (train/goal_recipe.hpp)
@@ -305,6 +305,8 @@ void run_train_residual(const Args& a) {
       if (a.objective_weights.empty()) c.objective_weights = g.objective_weights;
       if (a.location_facing_weight < 0) c.location_facing_weight = g.location_facing_weight;
       if (a.strike_approach_weight < 0) c.strike_approach_weight = g.strike_approach_weight;
+      if (a.strike_end_on_foreign_contact == 0) c.strike_end_on_foreign_contact = g.strike_end_on_foreign_contact;
+      if (a.strike_next_box < 0) c.strike_next_box_steps = g.strike_next_box_steps;
     }
     require(c.method == "scratch" || !a.base.empty(), "a base checkpoint is needed (or --method scratch)", {{}, {}, "--base"});
     if (c.method != "scratch") {
@@ -850,12 +852,12 @@ const bool registered = maskadapt::cli::register_command([](CLI::App& app) {
                      "strike, training only: MIN MAX distance of the placed boxes (m; default 1 3, as evaluated)"))
       ->expected(2)
       ->check(positive_real(100.0));
-  keep(c->add_flag("--strike-end-on-foreign-contact", a->strike_end_on_foreign_contact,
+  keep(c->add_flag("--strike-end-on-foreign-contact,!--no-strike-end-on-foreign-contact", a->strike_end_on_foreign_contact,
                    "strike, training only: a first contact by a body other than the hands ends the episode (ASE's rule; "
-                   "default: off, the paper's)"));
+                   "default: on with the cpu preset, off with the paper's)"));
   keep(c->add_option("--strike-next-box", a->strike_next_box,
-                     "strike, training only: a new box STEPS control steps after the box tilted (default 0: one box per "
-                     "episode, the paper's)"))
+                     "strike, training only: a new box STEPS control steps after the box tilted (0: one box per "
+                     "episode, the paper's; default: 15 with the cpu preset, 0 with the paper's)"))
       ->transform(non_negative_integer(100000));
   keep(c->add_option("--objective-weights", a->objective_weights,
                      "weights of the objectives' normalised advantages: one per discriminator, then the goal task's "

@@ -194,6 +194,7 @@ bad(--residual-std - train-residual --resume ${MISSING} --residual-std 0.2)
 bad(--noise-hold-steps - train-residual --resume ${MISSING} --noise-hold-steps 5)
 bad(--strike-next-box - train-residual --resume ${MISSING} --strike-next-box 15)
 bad(--strike-end-on-foreign-contact - train-residual --resume ${MISSING} --strike-end-on-foreign-contact)
+bad(--strike-end-on-foreign-contact - train-residual --resume ${MISSING} --no-strike-end-on-foreign-contact)   # (its --no- form)
 if(HAS_MUJOCO)
   # a flag of the other task (checked once the task is known)
   bad(--term-threshold - train-residual --method scratch --task composition --new-motion kick --term-threshold 0.1

@@ -199,7 +199,8 @@ TEST(TrainConfig, ShippedConfigsParse) {
 }
 
 // The goal tasks' rewards per preset (train/goal_recipe.hpp): the recipe weighs the goal 0.9 and the
-// discriminators 0.1 together, with the facing term on location and the approach on strike only;
+// discriminators 0.1 together, with the facing term on location and, on strike only, the approach,
+// a new box 15 steps after a tilt and the end of an episode at a foreign first contact;
 // the paper's formulation is ours' composition 1, every other discriminator 0.5 and the goal 0.5,
 // with no shaping. One weight per objective: the discriminators, then the goal.
 TEST(GoalRecipe, PresetsGiveTheRecipeOrThePapersGoalRewards) {
@@ -211,6 +212,10 @@ TEST(GoalRecipe, PresetsGiveTheRecipeOrThePapersGoalRewards) {
   EXPECT_EQ(strike_cml.objective_weights, (std::vector<double>{0.05, 0.05, 0.9}));
   EXPECT_EQ(strike_cml.location_facing_weight, 0.0);
   EXPECT_EQ(strike_cml.strike_approach_weight, 0.4);
+  EXPECT_TRUE(strike_cml.strike_end_on_foreign_contact);
+  EXPECT_EQ(strike_cml.strike_next_box_steps, 15);
+  EXPECT_FALSE(loc.strike_end_on_foreign_contact);
+  EXPECT_EQ(loc.strike_next_box_steps, 0);
   const GoalRewards heading_adaptnet = goal_rewards("cpu", "heading", "adaptnet", false);  // imitating A only
   EXPECT_EQ(heading_adaptnet.objective_weights, (std::vector<double>{0.1, 0.9}));
   EXPECT_EQ(heading_adaptnet.location_facing_weight + heading_adaptnet.strike_approach_weight, 0.0);
@@ -220,6 +225,8 @@ TEST(GoalRecipe, PresetsGiveTheRecipeOrThePapersGoalRewards) {
   const GoalRewards paper_cml = goal_rewards("paper", "strike", "cml", true);
   EXPECT_EQ(paper_cml.objective_weights, (std::vector<double>{0.5, 0.5, 0.5}));
   EXPECT_EQ(paper_cml.strike_approach_weight, 0.0);
+  EXPECT_FALSE(paper_cml.strike_end_on_foreign_contact);
+  EXPECT_EQ(paper_cml.strike_next_box_steps, 0);
   EXPECT_EQ(goal_rewards("paper", "location", "ours", true).location_facing_weight, 0.0);
 
   EXPECT_EQ(goal_task_discriminators("ours", true), 1u);
