@@ -231,6 +231,38 @@ TEST(ShippedModels, RecipeLocationPolicyIsTheRunItClaimsToBe) {
   EXPECT_TRUE(mu.allFinite());
 }
 
+// Round 5 of issue 39's recipe (models/recipe/strike_foreign_next15_s{1,2}.bin): ours on strike with
+// the approach term, a new box 15 steps after each tilt and the foreign-contact end, seeds 1 and 2,
+// taken at 3,000 iterations on the shipped walking base; mean actions finite with the arms masked.
+TEST(ShippedModels, RecipeStrikePoliciesAreTheRunsTheyClaimToBe) {
+  const Skeleton& skel = humanoid_skeleton();
+  const Checkpoint walker = load_checkpoint(maskadapt::build_paths::source_dir() + "/models/mask_mi_walk_bandai.bin");
+  for (const int seed : {1, 2}) {
+    const std::string path =
+        maskadapt::build_paths::source_dir() + "/models/recipe/strike_foreign_next15_s" + std::to_string(seed) + ".bin";
+    const Checkpoint c = load_checkpoint(path);
+    ASSERT_TRUE(is_residual_export(c)) << path;
+    const ResidualTrainConfig cfg = check_residual_export(c, path);
+    EXPECT_EQ(cfg.task, "strike") << path;
+    EXPECT_EQ(cfg.method, "ours") << path;
+    EXPECT_EQ(cfg.masks.front(), "arms") << path;
+    EXPECT_EQ(cfg.goal_parts, "lower_body") << path;
+    EXPECT_EQ(cfg.strike_approach_weight, 0.4) << path;
+    EXPECT_EQ(cfg.strike_next_box_steps, 15) << path;
+    EXPECT_TRUE(cfg.strike_end_on_foreign_contact) << path;
+    EXPECT_EQ(cfg.objective_weights, (std::vector<double>{0.1, 0.9})) << path;
+    EXPECT_EQ(cfg.rl.run.seed, static_cast<std::uint64_t>(seed)) << path;
+    EXPECT_EQ(c.get_int("trainer/iteration"), 3000) << path;
+    EXPECT_TRUE(same_base(c, walker)) << path << ": the frozen base is not models/mask_mi_walk_bandai.bin's actor";
+    const auto pol = stage2_policy_from_checkpoint<adapt::ResidualPolicy<float>>(c, skel);
+    MatrixXf x = MatrixXf::Zero(pol.input_dim(), 1), mu;
+    Stage2Types<adapt::ResidualPolicy<float>>::Workspace ws;
+    pol.mean(x, std::vector<PartMask>{PartMask::parse(cfg.masks.front())}, mu, ws);
+    EXPECT_EQ(mu.rows(), 63) << path;
+    EXPECT_TRUE(mu.allFinite()) << path;
+  }
+}
+
 // The Table 4 policies (issue 15, models/table4/): partial tracking with the arms designated and the
 // shipped text generator — ours and the CML-style baseline on the shipped walking base (seeds 1 and
 // 2), from scratch without a base (seed 1) — each the stage-2 export of the cell it is named after.
