@@ -573,9 +573,13 @@ void run_play(const PlayArgs& a, const std::string& command_line) {
       out.set_rot(static_cast<int>(t), b.rot[0]);
       out.q.col(static_cast<int>(t)) = sim.joint_angles(0);
       eval::add_frame(roll, b, m[0], sim.contacts(0));
-      if (goal) {  // what the policy was asked this step, then the task's bookkeeping (a play never resets)
+      if (goal) {  // what the policy was asked this step, then the task's bookkeeping
         add_scene_frame(*roll.scene, goal, sim, b);
-        goal_reward += goal.after_step(sim, 0, tasks::EpisodeEnd::none).reward;
+        const tasks::GoalStep g = goal.after_step(sim, 0, tasks::EpisodeEnd::none);
+        goal_reward += g.reward;
+        // a play never resets the character: where the task closes its trial (its next goal, or
+        // an end it would train with: strike's foreign contact) the next goal is drawn at once
+        if (g.next_goal || g.terminate) goal.new_episode(sim, 0);
       }
       if (tracking_task) {
         track_err += tracking::position_error(bodies, targets, t + 1, b);

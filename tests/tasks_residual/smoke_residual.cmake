@@ -191,6 +191,29 @@ foreach(task location strike)
     message(FATAL_ERROR "play_${task}.json: mask schedule '${schedule}', expected the first training mask '${want}'")
   endif()
 endforeach()
+# the shipped round-5 strike policy (its next box 15 steps after each tilt) in a 10-s play: one trial
+# per box, each new box placed where the character then is (needs the Bandai walks, its motion set)
+set(SHIPPED_STRIKE ${CMAKE_CURRENT_LIST_DIR}/../../models/recipe/strike_foreign_next15_s1.bin)
+if(EXISTS "$ENV{MASKADAPT_DATA_DIR}/motions/bandai" AND EXISTS ${SHIPPED_STRIKE})
+  execute_process(COMMAND ${CLI} play-residual ${SHIPPED_STRIKE} --seconds 10 --seed 2 --rollout ${OUT}/play_shipped_strike.json
+                  RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err TIMEOUT 120)
+  if(NOT rc EQUAL 0 OR NOT out MATCHES "trials ended ([0-9]+) \\(successes ([0-9]+)\\)")
+    message(FATAL_ERROR "play-residual of the shipped strike policy: ${rc}\n${out}${err}")
+  endif()
+  set(trials ${CMAKE_MATCH_1})
+  file(READ ${OUT}/play_shipped_strike.json j)
+  string(JSON p0 GET "${j}" scene objects 0 positions 0)
+  string(JSON p1 GET "${j}" scene objects 0 positions 299)
+  # seed 2 knocks its first box over at ~7 s: one closed trial (not one per step after it), and the
+  # last frame's box is a new one
+  if(trials LESS 1 OR trials GREATER 5 OR p0 STREQUAL p1)
+    message(FATAL_ERROR "play-residual of the shipped strike policy: ${trials} trials ended in 10 s (expected 1-5, one "
+                        "per box) and the box at 0 s ${p0}, at 10 s ${p1} (expected a new box)")
+  endif()
+else()
+  message(STATUS "play-residual of the shipped strike policy: skipped (no $ENV{MASKADAPT_DATA_DIR}/motions/bandai)")
+endif()
+
 # AdaptNet (the goal tasks' third method) trains and evaluates through the same commands
 run("train-residual adaptnet" train-residual --task heading --method adaptnet --base ${BASE} --iterations 1 ${tiny}
     --out ${OUT}/goal_adaptnet)

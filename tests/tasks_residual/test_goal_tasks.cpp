@@ -555,6 +555,10 @@ TEST(StrikeTask, SaveAndLoadKeepTheStepsSinceTheTilt) {
   old.load(before, "g/");
   for (int k = 1; k < 4; ++k) EXPECT_FALSE(old.after_step(sim, 0, tasks::EpisodeEnd::none).next_goal) << k;
   EXPECT_TRUE(old.after_step(sim, 0, tasks::EpisodeEnd::none).next_goal);
+  // a count out of range is refused, naming the section
+  Checkpoint bad = ck;
+  bad.put("g/since_tilt", VectorX<std::int64_t>::Constant(1, -3));
+  expect_error_naming([&] { old.load(bad, "g/"); }, "g/since_tilt", "a negative count");
 }
 
 TEST(StrikeTask, PlacesTheBoxUprightAtRestWithinTheDistanceRange) {

@@ -232,11 +232,13 @@ class StrikeTask {
     const auto n = static_cast<Index>(first_.size());
     const auto f = c.get_vector<std::int64_t>(prefix + "first_contact", n), t = c.get_vector<std::int64_t>(prefix + "tilted", n);
     const auto lr = c.get_vector<float>(prefix + "last_reward", n);
-    for (Index e = 0; e < n; ++e)
-      require(f[e] >= 0 && f[e] <= 2, "first-contact code out of range", {c.source(), std::nullopt, prefix + "first_contact"});
     // (absent before next_box_steps existed, when it was always 0)
     const auto st = c.contains(prefix + "since_tilt") ? c.get_vector<std::int64_t>(prefix + "since_tilt", n)
                                                        : VectorX<std::int64_t>::Zero(n).eval();
+    for (Index e = 0; e < n; ++e) {
+      require(f[e] >= 0 && f[e] <= 2, "first-contact code out of range", {c.source(), std::nullopt, prefix + "first_contact"});
+      require(st[e] >= 0 && st[e] <= 100000, "steps since the tilt out of range", {c.source(), std::nullopt, prefix + "since_tilt"});
+    }
     load_streams(c, prefix, rngs_);
     for (Index e = 0; e < n; ++e) {
       since_tilt_[idx(e)] = static_cast<int>(st[e]);
@@ -251,7 +253,7 @@ class StrikeTask {
   static std::size_t idx(Index e) { return static_cast<std::size_t>(e); }
   /// Counts env u's trial (`fell`: a fall ended it) under its outcome (see the file comment).
   void close_trial(std::size_t u, bool fell) {
-    const bool ok = tilted_[u] != 0 && first_[u] == FirstContact::Strike;
+    const bool ok = success(static_cast<Index>(u));
     trials_.add(ok);
     const std::size_t k = ok ? 0 : tilted_[u] != 0 ? 1 : fell ? 2 : first_[u] == FirstContact::Strike ? 3
                                    : first_[u] == FirstContact::Foreign ? 4 : 5;
