@@ -17,7 +17,9 @@
 # fig5a_/fig5b_viewer_{before,after}.png (models/table2/{kick_cut,swim}_ours_s1.bin, likewise; after-pictures at
 # 5.4 s and 5.0 s, where the kicking ankle and the swim's wrists are highest), and
 # generator_switch_{walk,wave}.png (models/text_generator.bin, "0:walk,2:wave right hand" from a
-# Bandai walk in $MASKADAPT_DATA_DIR), and g1_walker.png (models/g1_mask_mi_walk_bandai.bin, G1_T default 3 s).
+# Bandai walk in $MASKADAPT_DATA_DIR), and g1_walker.png (models/g1_mask_mi_walk_bandai.bin, G1_T default 3 s),
+# and goal_location.png, goal_strike_{before,after}.png (the recipe's location and strike policies of
+# models/recipe/; LOCATION_T default 1.5 s, STRIKE_T default 7.0 s, STRIKE_MODEL).
 # Times: WALK_T (default 0.6 s: the short CPU-trained bases fall after ≈1 s), SWITCH_T (the switch, default 5 s; pictures at SWITCH_T − 1 s and
 # SWITCH_T + 1.5 s), TRACK_T (default 0.6 s, before the fall).
 set -uo pipefail
@@ -176,6 +178,22 @@ if have "$repo/models/g1_mask_mi_walk_bandai.bin" "$cli" &&
    rollout_of g1_walker play models/g1_mask_mi_walk_bandai.bin --mask left_leg,right_leg --deterministic --seconds 10 --seed 1; then
   take "$picture" --rollout "$rollout" --label "models/g1_mask_mi_walk_bandai.bin (the G1-like robot), both legs masked, play --deterministic --seed 1" \
     --time "${G1_T:-3}"
+fi
+
+# (i) the stage-2 recipe's goal tasks (issue 39) with their goals drawn: location (the target ring)
+# and strike (the box, just before and after the hands knock it over), each 10 s of
+# `play-residual` from seed 2 with the run's first training mask (the arms).
+picture="goal_location.png"
+model="models/recipe/location_face05w19_s2.bin"
+if have "$repo/$model" "$cli" && rollout_of goal_location play-residual "$model" --seconds 10 --seed 2; then
+  take goal_location.png --rollout "$rollout" --label "$model: turning to its target" --time "${LOCATION_T:-1.5}"
+fi
+picture="goal_strike_before.png, goal_strike_after.png"
+model="${STRIKE_MODEL:-models/recipe/strike_foreign_next15_s1.bin}"
+if have "$repo/$model" "$cli" && rollout_of goal_strike play-residual "$model" --seconds 10 --seed 2; then
+  take goal_strike_before.png --rollout "$rollout" --label "$model: the strike" --time "${STRIKE_T:-7.0}"
+  take goal_strike_after.png --rollout "$rollout" --label "$model: the box going over" \
+    --time "$(awk -v t="${STRIKE_T:-7.0}" 'BEGIN { print t + 0.4 }')"
 fi
 
 echo "screenshots: $made written to $OUT, $skipped skipped, $failed failed"
