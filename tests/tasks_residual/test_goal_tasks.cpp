@@ -22,6 +22,15 @@ namespace {
 
 Quat yaw(double a) { return Quat(Eigen::AngleAxisd(a, Vec3::UnitZ())); }
 
+// A strike task's config on the tiny walker: its arms (bodies 2 and 3) are the strike bodies.
+tasks::StrikeConfig tiny_strike_config() {
+  tasks::StrikeConfig c;
+  c.strike_bodies = {2, 3};
+  return c;
+}
+// A box lying on its side (tilted 90°, well past the success angle).
+const Quat kBoxOnItsSide(Eigen::AngleAxisd(M_PI / 2, Vec3::UnitY()));
+
 // A simulator with one scene object whose state and contacts the test writes directly (for the
 // strike task's bookkeeping without MuJoCo).
 class TinySceneSim : public TinyWalkerSim {
@@ -363,8 +372,7 @@ TEST(StrikeTask, BoxTiltedBy80DegreesSucceedsBy70DoesNot) {
   EXPECT_NEAR(tasks::strike_reward(tilt(90)), 1.0, 1e-12);
   EXPECT_NEAR(tasks::strike_reward(tilt(60)), 0.5, 1e-12);
   TinySceneSim sim(1);
-  tasks::StrikeConfig c;
-  c.strike_bodies = {2, 3};  // the tiny walker's arms
+  tasks::StrikeConfig c = tiny_strike_config();
   tasks::StrikeTask task(c, 1);
   for (double deg : {80.0, 70.0}) {
     task.new_episode(sim, 0);
@@ -378,17 +386,15 @@ TEST(StrikeTask, BoxTiltedBy80DegreesSucceedsBy70DoesNot) {
 
 TEST(StrikeTask, OnlyAStrikeWithTheHandsCounts) {
   TinySceneSim sim(1);
-  tasks::StrikeConfig c;
-  c.strike_bodies = {2, 3};
+  tasks::StrikeConfig c = tiny_strike_config();
   tasks::StrikeTask task(c, 1);
-  const Quat fallen(Eigen::AngleAxisd(M_PI / 2, Vec3::UnitY()));
   // a leg touches first, the box falls: no success; the trial closes as a failure when the episode ends
   task.new_episode(sim, 0);
   sim.flags_[0] = {0, 0, 0, 0, 1, 0};
   task.after_step(sim, 0, tasks::EpisodeEnd::none);
   EXPECT_EQ(task.first_contact(0), tasks::FirstContact::Foreign);
   sim.flags_[0] = {0, 0, 1, 0, 0, 0};
-  sim.boxes_[0].rot = fallen;
+  sim.boxes_[0].rot = kBoxOnItsSide;
   task.after_step(sim, 0, tasks::EpisodeEnd::none);
   EXPECT_FALSE(task.success(0));
   task.after_step(sim, 0, tasks::EpisodeEnd::time_limit);  // (the trial is the episode: counted)
@@ -402,7 +408,7 @@ TEST(StrikeTask, OnlyAStrikeWithTheHandsCounts) {
   task.after_step(sim, 0, tasks::EpisodeEnd::none);
   EXPECT_EQ(task.first_contact(0), tasks::FirstContact::Strike);
   sim.flags_[0] = {0, 0, 0, 0, 0, 0};
-  sim.boxes_[0].rot = fallen;
+  sim.boxes_[0].rot = kBoxOnItsSide;
   task.after_step(sim, 0, tasks::EpisodeEnd::none);
   EXPECT_TRUE(task.success(0));
   task.after_step(sim, 0, tasks::EpisodeEnd::terminated);
@@ -427,10 +433,8 @@ long long outcome(const tasks::TrialOutcomes& o, const std::string& name) {
 
 TEST(StrikeTask, TrialOutcomesCountEachEndedTrialOnceInOrderOfPrecedence) {
   TinySceneSim sim(1);
-  tasks::StrikeConfig c;
-  c.strike_bodies = {2, 3};
+  tasks::StrikeConfig c = tiny_strike_config();
   tasks::StrikeTask task(c, 1);
-  const Quat fallen(Eigen::AngleAxisd(M_PI / 2, Vec3::UnitY()));
   // one trial per case: (first contact flags, box tilted, how the episode ends)
   struct Case { ContactFlags flags; bool tilt; tasks::EpisodeEnd end; const char* outcome; };
   const Case cases[] = {
@@ -446,7 +450,7 @@ TEST(StrikeTask, TrialOutcomesCountEachEndedTrialOnceInOrderOfPrecedence) {
   for (const Case& k : cases) {
     task.new_episode(sim, 0);
     sim.flags_[0] = k.flags;
-    sim.boxes_[0].rot = k.tilt ? fallen : Quat::Identity();
+    sim.boxes_[0].rot = k.tilt ? kBoxOnItsSide : Quat::Identity();
     task.after_step(sim, 0, tasks::EpisodeEnd::none);
     task.after_step(sim, 0, k.end);
   }
@@ -493,8 +497,7 @@ struct TinyImitation {
 
 TEST(StrikeTask, NextBoxClosesTheTrialKStepsAfterTheTiltAndPlacesANewBoxWithoutAReset) {
   TinySceneSim sim(1);
-  tasks::StrikeConfig c;
-  c.strike_bodies = {2, 3};
+  tasks::StrikeConfig c = tiny_strike_config();
   c.next_box_steps = 3;
   tasks::AnyGoalTask<TinySceneSim> goal = tasks::StrikeTask(c, 1);
   TinyImitation im{sim};
@@ -503,7 +506,7 @@ TEST(StrikeTask, NextBoxClosesTheTrialKStepsAfterTheTiltAndPlacesANewBoxWithoutA
   sim.flags_[0] = {0, 0, 1, 0, 0, 0};  // the left arm strikes ...
   tasks::advance_goal(goal, im, 0);
   sim.flags_[0] = {0, 0, 0, 0, 0, 0};
-  sim.boxes_[0].rot = Quat(Eigen::AngleAxisd(M_PI / 2, Vec3::UnitX()));  // ... and the box falls
+  sim.boxes_[0].rot = kBoxOnItsSide;  // ... and the box falls
   for (int k = 1; k <= 2; ++k) {  // steps 1 and 2 after the tilt: the trial goes on
     tasks::advance_goal(goal, im, 0);
     EXPECT_EQ(goal.trials().trials, 0) << k;
@@ -524,7 +527,7 @@ TEST(StrikeTask, NextBoxClosesTheTrialKStepsAfterTheTiltAndPlacesANewBoxWithoutA
   tasks::StrikeTask one(c, 1);
   one.new_episode(sim, 0);
   sim.flags_[0] = {0, 0, 1, 0, 0, 0};
-  sim.boxes_[0].rot = Quat(Eigen::AngleAxisd(M_PI / 2, Vec3::UnitX()));
+  sim.boxes_[0].rot = kBoxOnItsSide;
   for (int k = 0; k < 50; ++k) EXPECT_FALSE(one.after_step(sim, 0, tasks::EpisodeEnd::none).next_goal);
   EXPECT_EQ(one.trials().trials, 0);
   c.next_box_steps = -1;
@@ -533,13 +536,12 @@ TEST(StrikeTask, NextBoxClosesTheTrialKStepsAfterTheTiltAndPlacesANewBoxWithoutA
 
 TEST(StrikeTask, SaveAndLoadKeepTheStepsSinceTheTilt) {
   TinySceneSim sim(1);
-  tasks::StrikeConfig c;
-  c.strike_bodies = {2, 3};
+  tasks::StrikeConfig c = tiny_strike_config();
   c.next_box_steps = 4;
   tasks::StrikeTask a(c, 1), b(c, 1), old(c, 1);
   a.new_episode(sim, 0);
   sim.flags_[0] = {0, 0, 1, 0, 0, 0};
-  sim.boxes_[0].rot = Quat(Eigen::AngleAxisd(M_PI / 2, Vec3::UnitX()));
+  sim.boxes_[0].rot = kBoxOnItsSide;
   a.after_step(sim, 0, tasks::EpisodeEnd::none);  // tilted: 1 step counted
   a.after_step(sim, 0, tasks::EpisodeEnd::none);  // 2
   Checkpoint ck;
@@ -563,8 +565,7 @@ TEST(StrikeTask, SaveAndLoadKeepTheStepsSinceTheTilt) {
 
 TEST(StrikeTask, PlacesTheBoxUprightAtRestWithinTheDistanceRange) {
   TinySceneSim sim(3);
-  tasks::StrikeConfig c;
-  c.strike_bodies = {2, 3};
+  tasks::StrikeConfig c = tiny_strike_config();
   c.min_distance = 1.5;
   c.max_distance = 2.5;
   c.box_half_height = 0.6;
