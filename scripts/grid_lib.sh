@@ -73,8 +73,8 @@ goal_cell_args() {
 # paper_formulation_args TASK METHOD COMPOSES [FLAGS...] — the train-residual flags that give a goal-task
 # run the paper's rewards (train/goal_recipe.hpp, preset "paper") at the cpu preset's settings, since
 # train-residual's default (--preset cpu) is the stage-2 recipe: the paper's objective weights (ours
-# composing B: 1 0.5; CML-style / AdaptNet composing B: 0.5 0.5 0.5; without B: 0.5 0.5) and no
-# shaping term. COMPOSES is 1 when the run composes a motion B. Flags already among FLAGS (a
+# composing B: 1 0.5; CML-style / AdaptNet composing B: 0.5 0.5 0.5; without B: 0.5 0.5), no
+# shaping term, and strike's one box per episode that any body may touch. COMPOSES is 1 when the run composes a motion B. Flags already among FLAGS (a
 # variant's own) are left out, so that a variant changes one thing on top of the paper's formulation.
 paper_formulation_args() {
   local task=$1 method=$2 composes=$3
@@ -87,5 +87,10 @@ paper_formulation_args() {
   fi
   if [[ $task == location && $given != *" --location-facing-weight "* ]]; then out="$out --location-facing-weight 0"; fi
   if [[ $task == strike && $given != *" --strike-approach-weight "* ]]; then out="$out --strike-approach-weight 0"; fi
+  # (the recipe's strike since round 5: a new box after each tilt, the foreign-contact end)
+  if [[ $task == strike && $given != *" --strike-next-box "* ]]; then out="$out --strike-next-box 0"; fi
+  if [[ $task == strike && $given != *"strike-end-on-foreign-contact "* ]]; then
+    out="$out --no-strike-end-on-foreign-contact"
+  fi
   echo "$out"
 }

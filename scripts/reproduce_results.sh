@@ -369,7 +369,7 @@ recipe_lane2() {
   grid OUT="$RUNS/ab" VARIANT=paper TASK=strike SEED=1 $ab; grid OUT="$RUNS/ab" VARIANT=paper TASK=strike SEED=2 $ab
   grid OUT="$RUNS/ab" VARIANT=appr04 TASK=strike $ab --strike-approach-weight 0.4
   for seed in 1 2; do
-    grid OUT="$RUNS/ab" VARIANT=appr04w19 TASK=strike SEED=$seed $ab --strike-approach-weight 0.4 --objective-weights 0.1 0.9
+    grid OUT="$RUNS/ab" VARIANT=appr04w19 TASK=strike SEED=$seed $ab --strike-approach-weight 0.4 --objective-weights 0.1 0.9 --strike-next-box 0 --no-strike-end-on-foreign-contact
   done
 }
 # the second round (on top of the best first-round variant), 600 iterations; the position term to 1,500
@@ -404,7 +404,7 @@ recipe_long() {
       --location-facing-weight 0.5 --objective-weights 0.1 0.9
   done
   bgf recipe_chunks heading w19 --objective-weights 0.1 0.9
-  bgf recipe_chunks strike appr04w19 --strike-approach-weight 0.4 --objective-weights 0.1 0.9
+  bgf recipe_chunks strike appr04w19 --strike-approach-weight 0.4 --objective-weights 0.1 0.9 --strike-next-box 0 --no-strike-end-on-foreign-contact
   join
 }
 # recipe_chunks TASK VARIANT FLAGS… — seed 1, one thread, chunks of 1,500 iterations (the page has heading
@@ -416,9 +416,10 @@ recipe_chunks() {
     grid OUT="$RUNS/ab" VARIANT=$variant TASK=$task SEED=1 THREADS=1 ITERATIONS=$it scripts/stage2_ab.sh "$@"
   done
 }
-# Round 5 (2026-12-07): location seed 1 with the recipe (the cpu preset), the composition weighted 0.5
-# with the arms' σ 0.15, per-part credit (the arms from the composition alone) and its control
-recipe_round5() {
+# The per-part credit runs (2026-12-07): location seed 1 with the recipe (the cpu preset), the
+# composition weighted 0.5 with the arms' σ 0.15, per-part credit (the arms from the composition
+# alone) and its control
+recipe_credit() {
   local it
   grid OUT="$RUNS/ab" VARIANT=face05arms15w55 TASK=location SEED=1 THREADS=1 ITERATIONS=1500 scripts/stage2_ab.sh \
     --location-facing-weight 0.5 --part-std arms=0.15 --objective-weights 0.5 0.5
@@ -444,7 +445,37 @@ recipe() {
   bgf recipe_round3
   join
   recipe_long
-  recipe_round5
+  recipe_credit
+  recipe_strike
+}
+# Round 5 of docs/results.md's "Stage 2 recipe" (2026-12-07): strike at 3,000 iterations, one thread,
+# two runs at a time — the foreign-contact end, the next box and both (seed 2; both on seed 1 too,
+# the cpu preset's strike since), then Table 3's strike row for CML-style and AdaptNet with them
+recipe_strike() {
+  local ab=scripts/stage2_ab.sh both=(--strike-end-on-foreign-contact --strike-next-box 15) it seed method
+  for it in 1500 3000; do
+    bgf grid OUT="$RUNS/ab" FORMULATION=recipe VARIANT=foreign TASK=strike SEED=2 THREADS=1 ITERATIONS=$it $ab \
+      --strike-end-on-foreign-contact --strike-next-box 0
+    bgf grid OUT="$RUNS/ab" FORMULATION=recipe VARIANT=next15 TASK=strike SEED=2 THREADS=1 ITERATIONS=$it $ab \
+      --no-strike-end-on-foreign-contact --strike-next-box 15
+    join
+  done
+  for seed in 1 2; do for it in 1500 3000; do
+    grid OUT="$RUNS/ab" FORMULATION=recipe VARIANT=foreign_next15 TASK=strike SEED=$seed THREADS=1 ITERATIONS=$it $ab "${both[@]}"
+  done; done
+  for method in cml adaptnet; do
+    bgf recipe_strike_method "$method" "${both[@]}"
+  done
+  join
+}
+# recipe_strike_method METHOD FLAGS… — seeds 1 and 2, chunks of 1,500 to 3,000 iterations
+recipe_strike_method() {
+  local method=$1 seed it
+  shift
+  for seed in 1 2; do for it in 1500 3000; do
+    grid OUT="$RUNS/ab" FORMULATION=recipe VARIANT=foreign_next15 METHOD=$method TASK=strike SEED=$seed THREADS=1 \
+      ITERATIONS=$it scripts/stage2_ab.sh "$@"
+  done; done
 }
 
 # Every shipped model, evaluated from its file with the commands of docs/results.md ("The shipped
