@@ -621,7 +621,7 @@ struct EvalArgs {
   int envs = 10, repeats = 3, num_prompts = 10;
   long long frames = 1000, seed = 1, trials = 100;
   double seconds = 5.0, threshold_per_body = 0.1;
-  bool stochastic = false;
+  bool stochastic = false, oracle_targets = false;
   std::vector<std::string> composition_only, tracking_only, goal_only;  ///< such flags given on the command line
 };
 
@@ -635,10 +635,11 @@ void run_eval(const EvalArgs& a) {
   const std::string task = a.task.empty() ? c.task : a.task;
   require(task == c.task, "this checkpoint was trained for " + c.task + ", not " + task, {{}, {}, "--task"});
   if (is_goal_task(task)) {  // goal tasks read --envs, --mask and --threshold of the composition flags
-    std::vector<std::string> refused = a.tracking_only;
+    require_task_flags(a.tracking_only, task, "tracking");
+    std::vector<std::string> refused;
     for (const auto& f : a.composition_only)
       if (f != "--envs" && f != "--mask" && f != "--threshold") refused.push_back(f);
-    require_task_flags(refused, task, "composition / tracking");
+    require_task_flags(refused, task, "composition");
   } else {
     require_task_flags(task == "tracking" ? a.composition_only : a.tracking_only, task,
                        task == "tracking" ? "composition" : "tracking");
@@ -765,13 +766,16 @@ void run_eval(const EvalArgs& a) {
     opt.seconds = a.seconds;
     opt.deterministic = !a.stochastic;
     opt.seed = static_cast<std::uint64_t>(a.seed);
+    opt.oracle_targets = a.oracle_targets;
     const auto ev = evaluate_tracking(sim, pol, gen, PartMask::parse(c.designated), c.goal_steps, *base_lib, fall, opt,
                                       c.method == "scratch" ? std::optional<PartMask>(PartMask::all()) : std::nullopt);
     std::cout << "eval-residual tracking: " << opt.prompts.size() << " prompts x " << a.seconds << " s x " << a.repeats
-              << " repeats (designated " << c.designated << ")\n"
+              << " repeats (designated " << c.designated << ")"
+              << (a.oracle_targets ? "; oracle: the designated joints' PD targets are the target's angles" : "") << "\n"
               << format_tracking_table(ev);
     j["seconds"] = a.seconds;
     j["repeats"] = a.repeats;
+    j["oracle_targets"] = a.oracle_targets;
     j["result"] = to_json(ev);
   }
   if (!a.out.empty()) {
@@ -953,6 +957,8 @@ const bool registered = maskadapt::cli::register_command([](CLI::App& app) {
   v->add_option("--repeats", e->repeats, "tracking: repeats per prompt (default 3; one env each)")
       ->transform(integer_in(1, kMaxEnvs));
   v->add_option("--generator", e->generator, "tracking: generator checkpoint (default: the one trained with)");
+  v->add_flag("--oracle-targets", e->oracle_targets,
+              "tracking: drive the designated joints with the target's own angles as PD targets (the floor no policy can beat)");
   v->add_option("--trials", e->trials, "location / heading / strike: trials to end before reporting (default 100)")
       ->transform(positive_integer());
   v->add_flag("--stochastic", e->stochastic, "sample actions instead of the policy mean");
@@ -961,7 +967,7 @@ const bool registered = maskadapt::cli::register_command([](CLI::App& app) {
   v->callback([e, v] {
     for (const char* f : {"--mask", "--new-motion", "--envs", "--frames", "--threshold"})
       if (v->count(f) > 0) e->composition_only.push_back(f);
-    for (const char* f : {"--prompts", "--num-prompts", "--seconds", "--repeats", "--generator"})
+    for (const char* f : {"--prompts", "--num-prompts", "--seconds", "--repeats", "--generator", "--oracle-targets"})
       if (v->count(f) > 0) e->tracking_only.push_back(f);
     if (v->count("--trials") > 0) e->goal_only.push_back("--trials");
     run_eval(*e);

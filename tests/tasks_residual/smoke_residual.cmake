@@ -75,6 +75,22 @@ run("eval-residual tracking" eval-residual ${OUT}/track/checkpoint.bin --num-pro
 require_json(${OUT}/eval_track.json)
 file(READ ${OUT}/eval_track.json j)
 string(JSON sr GET "${j}" result success_rate)
+# --oracle-targets: the arms driven with the target's angles; the rotation error is reported and
+# the JSON says the oracle drove them. A goal-task checkpoint refuses the flag, naming it.
+run("eval-residual tracking --oracle-targets" eval-residual ${OUT}/track/checkpoint.bin --num-prompts 2 --seconds 0.5
+    --repeats 2 --oracle-targets --out ${OUT}/eval_oracle.json)
+if(NOT LAST_OUTPUT MATCHES "oracle: the designated joints' PD targets are the target's angles")
+  message(FATAL_ERROR "eval-residual --oracle-targets does not say so:\n${LAST_OUTPUT}")
+endif()
+file(READ ${OUT}/eval_oracle.json j)
+string(JSON oracle GET "${j}" oracle_targets)
+string(JSON rot GET "${j}" result rotation_error_rad)
+if(NOT oracle STREQUAL "ON" AND NOT oracle STREQUAL "true")
+  message(FATAL_ERROR "eval_oracle.json: oracle_targets is ${oracle}")
+endif()
+if(NOT rot GREATER_EQUAL 0)
+  message(FATAL_ERROR "eval_oracle.json: rotation_error_rad is ${rot}")
+endif()
 # A base with normalised actions (PD target = offset + scale ⊙ a): stage 2 composes in its units
 # and maps â the same way in training, after a resume, in play and in eval.
 run("train-base normalised" train-base --config ${CONFIG} --iterations 1 --envs 2 --threads 1 --motions walk
@@ -257,6 +273,8 @@ foreach(run goal_strike goal_adaptnet)
   endif()
   run("play-residual ${run} (export)" play-residual ${OUT}/${run}_model.bin --seconds 0.5 --bvh ${OUT}/${run}_model.bvh)
 endforeach()
+refused("--oracle-targets on a goal task" "--oracle-targets.*applies to --task tracking only"
+        eval-residual ${OUT}/goal_strike/checkpoint.bin --envs 2 --trials 2 --oracle-targets)
 refused("resuming an export" "field 'model/kind': a policy-only model file cannot be resumed"
         train-residual --resume ${OUT}/goal_strike_model.bin --iterations 3 --out ${OUT}/resumed_export)
 refused("an export as --base" "field 'residual_config': a stage-2 \\(train-residual\\) checkpoint or export"

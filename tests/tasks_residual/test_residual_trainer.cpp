@@ -653,6 +653,65 @@ TEST(ResidualEval, GoalTaskMeasuresTheComposedMotionBesideSuccess) {
   EXPECT_THROW(run(ComposedMotion{&g.d.added, arms, std::nan("")}), Error);
 }
 
+// Tracking evaluation with --oracle-targets: the arms' PD targets are the target trajectory's own
+// angles (the toy generator's "raise arms": the l_arm / r_arm x hinges at +0.6 / −0.6 rad, the
+// rest of the arms at the walk's 0), whatever the policy says; the other DoFs stay the base's. The
+// tiny walker's joints follow a target with the lag q ← q + Δt·8·(q* − q) from the walk's 0, so
+// after step t each arm is 0.6·(1 − 8Δt)^(t+1) rad from its target, and the rotation error is the
+// mean of that over the episode's steps (closed form). Without the oracle it is not.
+TEST(ResidualEval, TrackingOracleDrivesTheDesignatedJointsWithTheTargetsAngles) {
+  const Data d;
+  const Skeleton& skel = d.skel;
+  const PartMask arms = PartMask::parse("arms");
+  adapt::ResidualConfig rc;
+  rc.hidden = {16};
+  rc.goal_dim = tracking::goal_dim(skel, arms, 2);
+  Rng init(2);
+  adapt::ResidualPolicy<float> pol(tiny_base(skel), observation_dim(skel), action_parts(skel), rc, init);
+  Rng fill(5);  // a residual that moves the arms: the oracle must override it
+  for (Index i = 0; i < pol.residual().mean_net.params().size(); ++i)
+    pol.residual().mean_net.params()[i] = static_cast<float>(fill.uniform(-0.5, 0.5));
+  TinyGenerator gen;
+  TrackingEvalOptions opt;
+  opt.prompts = {"raise arms"};
+  opt.repeats = 2;
+  opt.seconds = 0.3;  // 9 control steps
+  opt.oracle_targets = true;
+  RecordingSim sim(2);
+  const TrackingEvaluation ev = evaluate_tracking(sim, pol, gen, arms, 2, d.base, never_falls(skel), opt);
+  ASSERT_EQ(sim.sent.size(), 9u);
+  const int la = skel.dof_offset(2), ra = skel.dof_offset(3);
+  const PartElements pe(observation_parts(skel));
+  const std::vector<PartMask> one_env(1, arms);
+  double expected_rot = 0;
+  for (std::size_t t = 0; t < sim.sent.size(); ++t) {
+    for (Index e = 0; e < 2; ++e) {
+      for (int k = 0; k < 3; ++k) {
+        EXPECT_EQ(sim.sent[t](la + k, e), k == 0 ? 0.6f : 0.0f) << "step " << t << " l_arm hinge " << k;
+        EXPECT_EQ(sim.sent[t](ra + k, e), k == 0 ? -0.6f : 0.0f) << "step " << t << " r_arm hinge " << k;
+      }
+      // the other DoFs: the composite's, as without the oracle (Δa acts on the arms only)
+      MatrixXf in = policy_input<float>(pe, MatrixXf(sim.before[t].col(e)), one_env), mu(skel.num_dofs(), 1), sc;
+      nn::InferenceWorkspace<float> bws;
+      pol.base().mean(in, mu, bws, sc);
+      for (Index i = 0; i < skel.num_dofs(); ++i) {
+        if (i >= la && i < ra + 3) continue;
+        EXPECT_NEAR(sim.sent[t](i, e), mu(i, 0), 1e-5f) << "step " << t << " DoF " << i;
+      }
+    }
+    expected_rot += 0.6 * std::pow(1.0 - 8.0 * TinyWalkerSim::kDt, static_cast<double>(t + 1)) / 9.0;
+  }
+  EXPECT_NEAR(ev.rotation_error, expected_rot, 1e-6);
+  EXPECT_NEAR(ev.prompts.at(0).rotation_error, expected_rot, 1e-6);
+  EXPECT_GT(ev.tracking_error, 0.0);
+
+  opt.oracle_targets = false;
+  RecordingSim plain(2);
+  const TrackingEvaluation free = evaluate_tracking(plain, pol, gen, arms, 2, d.base, never_falls(skel), opt);
+  EXPECT_GT(std::abs(free.rotation_error - expected_rot), 1e-3);
+  EXPECT_NE(plain.sent.front()(la, 0), 0.6f);
+}
+
 // Per-part credit's groups: DoFs whose parts carry equal weights form one group, in order of
 // first appearance; a part without its own weights takes the run's; a part with a weight count
 // other than the run's objective count is refused naming it.

@@ -23,6 +23,14 @@
 ///   - pose error of the rest (m): DTW (eval/dtw.hpp) between the simulated rest-body features
 ///     and the reference walk's features over the same span, mean cost per aligned pair divided
 ///     by the number of rest bodies (metres per body).
+///   - rotation error (rad): mean over frames and designated bodies of the angle between the
+///     simulated local joint rotation and the target's (what the training reward exp(−k·Σ angle²)
+///     sees, tracking::rotation_error_sq); it separates the arms' own error from what the trunk and
+///     the root's heading add to the position error.
+/// With `oracle_targets` the designated DoFs' PD targets are the target trajectory's hinge angles
+/// at the frame being tracked, whatever the policy commands there (the rest stays the policy's):
+/// the best a residual that outputs PD targets could do for those joints with this PD controller,
+/// if it knew the target exactly — a floor for the tracking error that no training can beat.
 ///
 /// Both send the policy's composite actions â (the base's units) to the simulator as the PD
 /// targets offset + scale ⊙ â of the base's action space (ResidualPolicy::actions(); identity: â).
@@ -169,19 +177,21 @@ struct TrackingEvalOptions {
   double threshold = eval::kSuccessThreshold;  ///< m
   bool deterministic = true;
   std::uint64_t seed = 1;
+  bool oracle_targets = false;  ///< the designated DoFs' PD targets := the target's angles (see file comment)
 };
 
 struct TrackingPromptResult {
   std::string prompt;
   double tracking_error = 0;  ///< m, mean over repeats
   double pose_error = 0;      ///< m per body (DTW), mean over repeats
+  double rotation_error = 0;  ///< rad per designated body, mean over repeats
   double success_rate = 0;
   int falls = 0;
 };
 
 struct TrackingEvaluation {
   std::vector<TrackingPromptResult> prompts;
-  double tracking_error = 0, pose_error = 0, success_rate = 0;  ///< over all episodes
+  double tracking_error = 0, pose_error = 0, rotation_error = 0, success_rate = 0;  ///< over all episodes
   int episodes = 0, falls = 0;
 };
 
@@ -212,7 +222,7 @@ TrackingEvaluation evaluate_tracking(Sim& sim, const adapt::ResidualPolicy<float
   RowVectorX<float> logp;
   adapt::ResidualWorkspace<float> ws;
   TrackingEvaluation out;
-  double sum_track = 0, sum_pose = 0;
+  double sum_track = 0, sum_pose = 0, sum_rot = 0;
   int successes = 0;
   for (const std::string& prompt : opt.prompts) {
     TrackingPromptResult pr;
@@ -230,6 +240,7 @@ TrackingEvaluation evaluate_tracking(Sim& sim, const adapt::ResidualPolicy<float
     std::vector<MatrixXf> sim_rest(static_cast<std::size_t>(N), MatrixXf(3 * rest_bodies, steps));
     std::vector<Index> alive(static_cast<std::size_t>(N), steps);
     std::vector<bool> fell(static_cast<std::size_t>(N), false);
+    std::vector<double> rot_sum(static_cast<std::size_t>(N), 0.0);  // Σ over alive frames of the mean angle (rad)
     for (Index t = 0; t < steps; ++t) {
       for (Index e = 0; e < N; ++e) {
         compute_observation(skel, sim.body_states(static_cast<std::size_t>(e)), obs.col(e));
@@ -239,6 +250,11 @@ TrackingEvaluation evaluate_tracking(Sim& sim, const adapt::ResidualPolicy<float
       if (opt.deterministic) policy.mean(x, masks, actions, ws);
       else policy.act(x, masks, rng, actions, logp, mu, ws);
       policy.to_targets(actions, pd_targets);  // offset + scale ⊙ â
+      if (opt.oracle_targets)
+        for (Index e = 0; e < N; ++e)
+          for (int b : bodies)
+            pd_targets.col(e).segment<3>(skel.dof_offset(b)) =
+                targets[static_cast<std::size_t>(e)].q.col(t + 1).segment<3>(skel.dof_offset(b)).cast<float>();
       sim.step(pd_targets);
       for (Index e = 0; e < N; ++e) {
         const auto ue = static_cast<std::size_t>(e);
@@ -253,6 +269,11 @@ TrackingEvaluation evaluate_tracking(Sim& sim, const adapt::ResidualPolicy<float
           actual.col(static_cast<Index>(j)) = tracking::heading_local(b.pos.col(bi), b.pos.col(0), b.rot[0]);
         }
         eps[ue].add_frame(actual, target);
+        for (int bi : bodies) {
+          const Quat local = (b.rot[static_cast<std::size_t>(skel.parents[static_cast<std::size_t>(bi)])].conjugate() *
+                              b.rot[static_cast<std::size_t>(bi)]).normalized();
+          rot_sum[ue] += joint_rotation(skel, bi, tr.q.col(t + 1)).angularDistance(local) / static_cast<double>(bodies.size());
+        }
         sim_rest[ue].col(t) = visitation_features(skel, b, rest);
         if (has_fallen(fall, b, sim.contacts(ue))) {
           fell[ue] = true;
@@ -274,6 +295,9 @@ TrackingEvaluation evaluate_tracking(Sim& sim, const adapt::ResidualPolicy<float
       const bool ok = eps[ue].success() && !fell[ue];
       pr.tracking_error += eps[ue].mean_error() / static_cast<double>(N);
       pr.pose_error += pose / static_cast<double>(N);
+      const double rot = rot_sum[ue] / static_cast<double>(eps[ue].frames());
+      pr.rotation_error += rot / static_cast<double>(N);
+      sum_rot += rot;
       pr.success_rate += (ok ? 1.0 : 0.0) / static_cast<double>(N);
       pr.falls += fell[ue] ? 1 : 0;
       sum_track += eps[ue].mean_error();
@@ -286,6 +310,7 @@ TrackingEvaluation evaluate_tracking(Sim& sim, const adapt::ResidualPolicy<float
   }
   out.tracking_error = sum_track / out.episodes;
   out.pose_error = sum_pose / out.episodes;
+  out.rotation_error = sum_rot / out.episodes;
   out.success_rate = static_cast<double>(successes) / out.episodes;
   return out;
 }
@@ -310,13 +335,14 @@ inline nlohmann::json to_json(const TrackingEvaluation& ev) {
   nlohmann::json j;
   j["tracking_error_m"] = ev.tracking_error;
   j["pose_error_dtw_m"] = ev.pose_error;
+  j["rotation_error_rad"] = ev.rotation_error;
   j["success_rate"] = ev.success_rate;
   j["episodes"] = ev.episodes;
   j["falls"] = ev.falls;
   j["prompts"] = nlohmann::json::array();
   for (const auto& p : ev.prompts)
     j["prompts"].push_back({{"prompt", p.prompt}, {"tracking_error_m", p.tracking_error}, {"pose_error_dtw_m", p.pose_error},
-                            {"success_rate", p.success_rate}, {"falls", p.falls}});
+                            {"rotation_error_rad", p.rotation_error}, {"success_rate", p.success_rate}, {"falls", p.falls}});
   return j;
 }
 
@@ -334,15 +360,15 @@ inline std::string format_composition_table(const std::vector<CompositionResult>
 
 /// Plain-text table of a tracking evaluation (one row per prompt + the total).
 inline std::string format_tracking_table(const TrackingEvaluation& ev) {
-  std::string s = "prompt                   tracking err (m)  pose err DTW (m)  success  falls\n";
-  char line[200];
+  std::string s = "prompt                   tracking err (m)  pose err DTW (m)  rotation err (rad)  success  falls\n";
+  char line[220];
   for (const auto& p : ev.prompts) {
-    std::snprintf(line, sizeof line, "%-24s %16.3f %17.3f %8.2f %6d\n", p.prompt.substr(0, 24).c_str(), p.tracking_error,
-                  p.pose_error, p.success_rate, p.falls);
+    std::snprintf(line, sizeof line, "%-24s %16.3f %17.3f %19.3f %8.2f %6d\n", p.prompt.substr(0, 24).c_str(), p.tracking_error,
+                  p.pose_error, p.rotation_error, p.success_rate, p.falls);
     s += line;
   }
-  std::snprintf(line, sizeof line, "%-24s %16.3f %17.3f %8.2f %6d\n", "all", ev.tracking_error, ev.pose_error,
-                ev.success_rate, ev.falls);
+  std::snprintf(line, sizeof line, "%-24s %16.3f %17.3f %19.3f %8.2f %6d\n", "all", ev.tracking_error, ev.pose_error,
+                ev.rotation_error, ev.success_rate, ev.falls);
   s += line;
   return s;
 }
