@@ -80,6 +80,15 @@ const char* const kTrackingFlags[] = {"--designated", "--generator", "--texts", 
           {{}, {}, given.empty() ? std::string() : given.front()});
 }
 
+/// A MIN MAX flag's two values into `min`, `max`; left as they are when the flag was not given
+/// (empty), refused naming `flag` for any other count.
+void assign_min_max(const std::vector<double>& given, const std::string& flag, double& min, double& max) {
+  if (given.empty()) return;
+  require(given.size() == 2, "expected two values, MIN MAX (m)", {{}, {}, flag});
+  min = given[0];
+  max = given[1];
+}
+
 /// One line on how the composite actions become PD targets (the base's action space; scratch:
 /// the run config's).
 std::string describe_actions(const tasks::ActionSpace& s, const NetworkConfig& net) {
@@ -280,11 +289,7 @@ void run_train_residual(const Args& a) {
     if (a.noise_hold_steps > 0) c.noise_hold_steps = a.noise_hold_steps;
     if (a.location_facing_weight >= 0) c.location_facing_weight = a.location_facing_weight;
     if (a.location_position_weight >= 0) c.location_position_weight = a.location_position_weight;
-    if (!a.location_distance.empty()) {
-      require(a.location_distance.size() == 2, "expected two values, MIN MAX (m)", {{}, {}, "--location-distance"});
-      c.location_min_distance = a.location_distance[0];
-      c.location_max_distance = a.location_distance[1];
-    }
+    assign_min_max(a.location_distance, "--location-distance", c.location_min_distance, c.location_max_distance);
     if (a.location_divergence >= 0) c.location_divergence = a.location_divergence;
     if (a.location_arrive_distance >= 0) c.location_arrive_distance = a.location_arrive_distance;
     if (a.location_reach_bonus >= 0) c.location_reach_bonus = a.location_reach_bonus;
@@ -292,11 +297,7 @@ void run_train_residual(const Args& a) {
     if (!a.part_objective_weights.empty())
       c.part_objective_weights = parse_part_weights(a.part_objective_weights, "--part-objective-weights");
     if (a.strike_approach_weight >= 0) c.strike_approach_weight = a.strike_approach_weight;
-    if (!a.strike_distance.empty()) {
-      require(a.strike_distance.size() == 2, "expected two values, MIN MAX (m)", {{}, {}, "--strike-distance"});
-      c.strike_min_distance = a.strike_distance[0];
-      c.strike_max_distance = a.strike_distance[1];
-    }
+    assign_min_max(a.strike_distance, "--strike-distance", c.strike_min_distance, c.strike_max_distance);
     if (a.strike_end_on_foreign_contact != 0) c.strike_end_on_foreign_contact = a.strike_end_on_foreign_contact > 0;
     if (a.strike_next_box >= 0) c.strike_next_box_steps = a.strike_next_box;
     if (!a.objective_weights.empty()) c.objective_weights = a.objective_weights;

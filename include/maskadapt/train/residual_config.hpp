@@ -313,6 +313,16 @@ inline std::array<double, kNumParts> parse_part_std(const std::vector<std::strin
   });
 }
 
+/// The [min, max] pair at `key` of a residual_config JSON into `min`, `max` ([lo, hi] when absent:
+/// written before the key existed); anything but two numbers throws naming `file` and `key`.
+inline void read_min_max(const nlohmann::json& j, const std::string& key, double lo, double hi, const std::string& file,
+                         double& min, double& max) {
+  const auto v = j.value(key, std::vector<double>{lo, hi});
+  if (v.size() != 2) throw Error("expected [min, max] (m)", {file, std::nullopt, key});
+  min = v[0];
+  max = v[1];
+}
+
 inline nlohmann::json to_json(const ResidualTrainConfig& c) {
   return {{"rl", to_json(c.rl)},
           {"task", c.task},
@@ -376,19 +386,13 @@ inline ResidualTrainConfig residual_config_from_json(const nlohmann::json& j, co
     c.location_position_weight = j.value("location_position_weight", 0.0);  // (absent before it existed: the paper's reward)
     // (the three below absent before they existed: every part at residual_std, 1–5 m, no divergence test)
     c.residual_part_std = part_std_from_json(j.value("residual_part_std", nlohmann::json::object()), file);
-    const auto dist = j.value("location_distance", std::vector<double>{1.0, 5.0});
-    if (dist.size() != 2) throw Error("expected [min, max] (m)", {file, std::nullopt, "location_distance"});
-    c.location_min_distance = dist[0];
-    c.location_max_distance = dist[1];
+    read_min_max(j, "location_distance", 1.0, 5.0, file, c.location_min_distance, c.location_max_distance);
     c.location_divergence = j.value("location_divergence", 0.0);
     c.location_arrive_distance = j.value("location_arrive_distance", 0.0);  // (absent before it existed: off)
     c.location_reach_bonus = j.value("location_reach_bonus", 0.0);          // (absent before it existed: off)
     c.strike_approach_weight = j.value("strike_approach_weight", 0.0);  // (absent before it existed: the paper's reward)
     // (the three below absent before they existed: the paper's 1–3 m, other bodies may touch, one box per episode)
-    const auto sdist = j.value("strike_distance", std::vector<double>{1.0, 3.0});
-    if (sdist.size() != 2) throw Error("expected [min, max] (m)", {file, std::nullopt, "strike_distance"});
-    c.strike_min_distance = sdist[0];
-    c.strike_max_distance = sdist[1];
+    read_min_max(j, "strike_distance", 1.0, 3.0, file, c.strike_min_distance, c.strike_max_distance);
     c.strike_end_on_foreign_contact = j.value("strike_end_on_foreign_contact", false);
     c.strike_next_box_steps = j.value("strike_next_box_steps", 0);
     c.designated = j.at("designated");
