@@ -309,6 +309,15 @@ void run_train_residual(const Args& a) {
       if (a.strike_end_on_foreign_contact == 0) c.strike_end_on_foreign_contact = g.strike_end_on_foreign_contact;
       if (a.strike_next_box < 0) c.strike_next_box_steps = g.strike_next_box_steps;
     }
+    if (c.task == "tracking") {  // the preset's tracking settings where no flag says otherwise (train/goal_recipe.hpp)
+      const TrackingRecipe t = tracking_recipe(a.preset.empty() ? "cpu" : a.preset);
+      if (a.objective_weights.empty()) c.objective_weights = t.objective_weights;
+      if (a.residual_std <= 0 && a.part_std.empty() && t.designated_std > 0) {
+        const PartMask designated = PartMask::parse(c.designated, "--designated");
+        for (int p = 0; p < kNumParts; ++p)
+          if (designated.has(static_cast<BodyPart>(p))) c.residual_part_std[static_cast<std::size_t>(p)] = t.designated_std;
+      }
+    }
     require(c.method == "scratch" || !a.base.empty(), "a base checkpoint is needed (or --method scratch)", {{}, {}, "--base"});
     if (c.method != "scratch") {
       // The frozen base's architecture and, unless --motions, its motion set A come from its checkpoint.
@@ -820,7 +829,7 @@ const bool registered = maskadapt::cli::register_command([](CLI::App& app) {
   keep(c->add_option("--gain", a->gain, "fixed | scalar | per_dof"))->check(one_of({"fixed", "scalar", "per_dof"}));
   keep(c->add_option("--hidden", a->hidden, "residual hidden sizes"))->transform(integer_in(1, 16384));
   keep(c->add_option("--residual-std", a->residual_std,
-                     "σ of the residual's exploration on the adapted DoFs (action units; default: the base's σ)"))
+                     "σ of the residual's exploration on the adapted DoFs (action units; default: the base's σ; tracking with the cpu preset: 0.5 on the designated parts)"))
       ->check(positive_real(10.0));
   keep(c->add_option("--noise-hold-steps", a->noise_hold_steps,
                      "control steps each draw of exploration noise is held (default 1: fresh every step)"))
@@ -834,7 +843,7 @@ const bool registered = maskadapt::cli::register_command([](CLI::App& app) {
       ->check(probability());
   keep(c->add_option("--part-std", a->part_std,
                      "σ of the residual's exploration per body part, PARTS=σ items (e.g. arms=0.15 lower_body=0.05; "
-                     "default: --residual-std on every part)"));
+                     "default: --residual-std on every part; tracking with the cpu preset: the designated parts at 0.5)"));
   keep(c->add_option("--part-objective-weights", a->part_objective_weights,
                      "per-part credit: the objective weights each part's DoFs are credited with, PARTS=w1,w2,... items, one "
                      "weight per objective as --objective-weights (e.g. arms=1,0 lower_body=0.1,0.9: the arms learn from the "
@@ -870,15 +879,17 @@ const bool registered = maskadapt::cli::register_command([](CLI::App& app) {
       ->transform(non_negative_integer(100000));
   keep(c->add_option("--objective-weights", a->objective_weights,
                      "weights of the objectives' normalised advantages: one per discriminator, then the goal task's "
-                     "(default: ours 1, cml 0.5 0.5, goal task 0.5)"))
+                     "(default: composition ours 1, cml 0.5 0.5; goal tasks and tracking: each 0.5 with --preset paper, the goal 0.9 "
+                     "against 0.1 for the discriminators together with cpu)"))
       ->check(non_negative_real());
   keep(c->add_option("--blend-resets", a->blend_resets,
                      "composition: share of resets from the part-wise blends of A and B (B's pose on the adapted "
                      "parts; default 0: every reset from A)"))
       ->check(probability());
   CLI::Option* preset = keep(c->add_option("--preset", a->preset,
-                                                "cpu (default): the CPU settings and, on a goal task, the stage-2 recipe's rewards "
-                                                "(goal weighted 0.9, location facing 0.5, strike approach 0.4) | paper: the paper's "
+                                                "cpu (default): the CPU settings and, on a goal task or tracking, the stage-2 recipe "
+                                                "(goal weighted 0.9, location facing 0.5, strike approach 0.4, tracking σ 0.5 on the "
+                                                "designated parts) | paper: the paper's "
                                                 "settings and formulation; explicit reward flags win over either"))->check(one_of({"cpu", "paper"}));
   keep(c->add_option("--envs", a->envs, "parallel envs"))->transform(integer_in(1, kMaxEnvs));
   keep(c->add_option("--threads", a->threads, "threads for simulation and network passes (0 = all cores)"))

@@ -42,6 +42,26 @@ string(JSON tr ERROR_VARIABLE e GET "${first}" tracking_reward)
 if(e OR tr STREQUAL "null")
   message(FATAL_ERROR "track/log.jsonl has no tracking_reward column: ${first}")
 endif()
+# the default preset (cpu) gives tracking the recipe: the goal weighted 0.9 and σ 0.5 on the
+# designated parts (the arms); --preset paper keeps the paper's (no weights written: 0.5 / 0.5)
+file(READ ${OUT}/track/residual_config.json rc)
+string(JSON w0 GET "${rc}" objective_weights 0)
+string(JSON w1 GET "${rc}" objective_weights 1)
+string(JSON sl GET "${rc}" residual_part_std left_arm)
+string(JSON sr GET "${rc}" residual_part_std right_arm)
+string(JSON nparts LENGTH "${rc}" residual_part_std)
+if(NOT w0 EQUAL 0.1 OR NOT w1 EQUAL 0.9 OR NOT sl EQUAL 0.5 OR NOT sr EQUAL 0.5 OR NOT nparts EQUAL 2)
+  message(FATAL_ERROR "track/residual_config.json: objective_weights ${w0} ${w1}, arms σ ${sl} ${sr} (${nparts} parts); "
+                      "the cpu recipe is 0.1 0.9 and σ 0.5 on the two arms")
+endif()
+run("train-residual tracking --preset paper" train-residual --task tracking --base ${BASE} --generator ${OUT}/gen.ckpt
+    --preset paper --goal-trajectories 2 --iterations 1 --envs 2 --threads 1 --hidden 16 --episode-seconds 1 --out ${OUT}/track_paper)
+file(READ ${OUT}/track_paper/residual_config.json rc)
+string(JSON nw LENGTH "${rc}" objective_weights)
+string(JSON nparts LENGTH "${rc}" residual_part_std)
+if(NOT nw EQUAL 0 OR NOT nparts EQUAL 0)
+  message(FATAL_ERROR "track_paper/residual_config.json: ${nw} objective weights, σ on ${nparts} parts; the paper's has none")
+endif()
 
 run("play-residual --mask-schedule" play-residual ${OUT}/comp_ours/checkpoint.bin --mask-schedule "0:lower_body,0.5:arms"
     --seconds 1 --bvh ${OUT}/comp.bvh --rollout ${OUT}/comp.json)

@@ -229,6 +229,18 @@ TEST(GoalRecipe, PresetsGiveTheRecipeOrThePapersGoalRewards) {
   EXPECT_EQ(paper_cml.strike_next_box_steps, 0);
   EXPECT_EQ(goal_rewards("paper", "location", "ours", true).location_facing_weight, 0.0);
 
+  const TrackingRecipe tracking = tracking_recipe("cpu");  // partial tracking: the goal weight and σ 0.5 on the designated parts
+  EXPECT_EQ(tracking.objective_weights, (std::vector<double>{0.1, 0.9}));
+  EXPECT_EQ(tracking.designated_std, 0.5);
+  EXPECT_TRUE(tracking_recipe("paper").objective_weights.empty());  // the paper's 0.5 / 0.5
+  EXPECT_EQ(tracking_recipe("paper").designated_std, 0.0);            // the base's σ
+  try {
+    (void)tracking_recipe("gpu");
+    ADD_FAILURE() << "an unknown preset was accepted for tracking";
+  } catch (const Error& e) {
+    EXPECT_EQ(e.context().field, "--preset");
+  }
+
   EXPECT_EQ(goal_task_discriminators("ours", true), 1u);
   EXPECT_EQ(goal_task_discriminators("adaptnet", true), 2u);
   EXPECT_EQ(goal_task_discriminators("cml", false), 1u);

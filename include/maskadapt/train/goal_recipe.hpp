@@ -22,6 +22,13 @@
 ///     over with its body, which the paper's reward pays as much as a strike).
 /// The weights are per objective, in the order the run builds its objectives: its discriminators,
 /// then the goal.
+///
+/// Partial tracking (`tracking_recipe`) takes the same goal weight and explores the designated
+/// parts with σ_ψ = 0.5 (action units) instead of the base's σ = e^−2.9 ≈ 0.055: with the base's σ
+/// the adaptive learning rate, which holds each update's KL near 0.01–0.02, lets the arms' mean move
+/// about σ·√(2·KL/24) ≈ 0.002 action units per update, so at 1.54 M samples the arms were still
+/// 0.55 rad from their targets per joint (docs/results.md, Table 4: tracking error 0.192 → 0.106 m
+/// at 1.54 M samples with both).
 #include <maskadapt/core/error.hpp>
 
 #include <cstddef>
@@ -79,6 +86,22 @@ inline GoalRewards goal_rewards(const std::string& preset, const std::string& ta
     r.strike_next_box_steps = kRecipeStrikeNextBoxSteps;
   }
   return r;
+}
+
+/// What the recipe sets on a partial-tracking run (see the file comment).
+struct TrackingRecipe {
+  std::vector<double> objective_weights;  ///< the imitation discriminator's, then the goal's; empty: the paper's 0.5 / 0.5
+  double designated_std = 0.0;            ///< σ_ψ on the designated parts' DoFs (action units); 0: the base's σ
+};
+
+inline constexpr double kRecipeTrackingStd = 0.5;
+
+/// The partial-tracking settings of `preset` ("cpu": the recipe; "paper": the paper's
+/// formulation). Throws naming --preset for another preset.
+inline TrackingRecipe tracking_recipe(const std::string& preset) {
+  require(preset == "cpu" || preset == "paper", "unknown preset '" + preset + "' (cpu or paper)", {{}, {}, "--preset"});
+  if (preset == "paper") return {};
+  return {{kRecipeDiscriminatorWeight, kRecipeGoalWeight}, kRecipeTrackingStd};
 }
 
 }  // namespace maskadapt::train
