@@ -26,8 +26,8 @@
 /// Partial tracking (`tracking_recipe`) takes the same goal weight and explores the designated
 /// parts with σ_ψ = 0.5 (action units) instead of the base's σ = e^−2.9 ≈ 0.055: with the base's σ
 /// the adaptive learning rate, which holds each update's KL near 0.01–0.02, lets the arms' mean move
-/// about σ·√(2·KL/24) ≈ 0.002 action units per update, so at 1.54 M samples the arms were still
-/// 0.55 rad from their targets per joint (docs/results.md, Table 4: tracking error 0.192 → 0.106 m
+/// about σ·√(2·KL/24) ≈ 0.002 action units per update, so after 3.07 M samples the arms were still
+/// 0.55 rad per joint from their targets (docs/results.md, Table 4: tracking error 0.186 → 0.106 m
 /// at 1.54 M samples with both).
 #include <maskadapt/core/error.hpp>
 
