@@ -71,10 +71,11 @@ goal_cell_args() {
 }
 
 # paper_formulation_args TASK METHOD COMPOSES [FLAGS...] — the train-residual flags that give a goal-task
-# run the paper's rewards (train/goal_recipe.hpp, preset "paper") at the cpu preset's settings, since
+# or tracking run the paper's rewards (train/goal_recipe.hpp, preset "paper") at the cpu preset's settings, since
 # train-residual's default (--preset cpu) is the stage-2 recipe: the paper's objective weights (ours
-# composing B: 1 0.5; CML-style / AdaptNet composing B: 0.5 0.5 0.5; without B: 0.5 0.5), no
-# shaping term, and strike's one box per episode that any body may touch. COMPOSES is 1 when the run composes a motion B. Flags already among FLAGS (a
+# composing B: 1 0.5; CML-style / AdaptNet composing B: 0.5 0.5 0.5; without B and tracking: 0.5 0.5), no
+# shaping term, strike's one box per episode that any body may touch, and tracking's residual at the
+# base's σ. COMPOSES is 1 when the run composes a motion B. Flags already among FLAGS (a
 # variant's own) are left out, so that a variant changes one thing on top of the paper's formulation.
 paper_formulation_args() {
   local task=$1 method=$2 composes=$3
@@ -91,6 +92,10 @@ paper_formulation_args() {
   if [[ $task == strike && $given != *" --strike-next-box "* ]]; then out="$out --strike-next-box 0"; fi
   if [[ $task == strike && $given != *"strike-end-on-foreign-contact "* ]]; then
     out="$out --no-strike-end-on-foreign-contact"
+  fi
+  # (the recipe's tracking since 2026-12-07: σ 0.5 on the designated parts; 0 is the base's σ)
+  if [[ $task == tracking && $given != *" --residual-std "* && $given != *" --part-std "* ]]; then
+    out="$out --residual-std 0"
   fi
   echo "$out"
 }

@@ -334,13 +334,19 @@ table3() {
   grid OUT="$RUNS/t3floor" FORMULATION=paper ITERATIONS=1 CELLS="location_ours heading_ours strike_ours" scripts/table3_grid.sh
 }
 table4() {
-  # 1,500 iterations first (the table's "at 1,500 iterations" row), then resumed bit-exactly to 3,000
-  grid OUT="$RUNS/t4" ITERATIONS=1500 SEED=1 scripts/table4_grid.sh
-  grid OUT="$RUNS/t4" ITERATIONS=1500 SEED=2 CELLS="ours cml" scripts/table4_grid.sh
-  grid OUT="$RUNS/t4" ITERATIONS=3000 SEED=1 scripts/table4_grid.sh
-  grid OUT="$RUNS/t4" ITERATIONS=3000 SEED=2 CELLS="ours cml" scripts/table4_grid.sh
+  # the shipped cells of 2026-12-03 (the paper's weights and σ): 1,500 iterations first (the
+  # table's "at 1,500 iterations" row), then resumed bit-exactly to 3,000
+  grid OUT="$RUNS/t4" FORMULATION=paper ITERATIONS=1500 SEED=1 scripts/table4_grid.sh
+  grid OUT="$RUNS/t4" FORMULATION=paper ITERATIONS=1500 SEED=2 CELLS="ours cml" scripts/table4_grid.sh
+  grid OUT="$RUNS/t4" FORMULATION=paper ITERATIONS=3000 SEED=1 scripts/table4_grid.sh
+  grid OUT="$RUNS/t4" FORMULATION=paper ITERATIONS=3000 SEED=2 CELLS="ours cml" scripts/table4_grid.sh
   # the frozen base: the ours cell after one iteration
-  grid OUT="$RUNS/t4floor" ITERATIONS=1 SEED=1 CELLS=ours scripts/table4_grid.sh
+  grid OUT="$RUNS/t4floor" FORMULATION=paper ITERATIONS=1 SEED=1 CELLS=ours scripts/table4_grid.sh
+  # the stage-2 recipe (issue 39, 2026-12-07; one thread per run): 1,500 then 3,000 iterations
+  for it in 1500 3000; do
+    grid OUT="$RUNS/t4r" ITERATIONS=$it THREADS=1 SEED=1 scripts/table4_grid.sh
+    grid OUT="$RUNS/t4r" ITERATIONS=$it THREADS=1 SEED=2 CELLS="ours cml" scripts/table4_grid.sh
+  done
 }
 
 # docs/results.md, "Stage 2 recipe" (issue 39): every A/B run of the table, two at a time, 600

@@ -10,6 +10,10 @@
 #
 # Resumable and extendable like scripts/table3_grid.sh: a cell whose checkpoint exists continues it
 # (--resume, bit-exact) up to ITERATIONS; a cell with an eval_it<ITERATIONS>.json is done.
+#
+# FORMULATION=recipe (the default): train-residual's cpu preset, whose tracking is the stage-2
+# recipe of issue 39 (the goal weighted 0.9, σ 0.5 on the arms; train/goal_recipe.hpp);
+# FORMULATION=paper: the paper's weights and the base's σ (the shipped models/table4 cells).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 source scripts/grid_lib.sh
@@ -23,6 +27,8 @@ THREADS=${THREADS:-2}
 SEED=${SEED:-1}
 OUT=${OUT:-runs/t4}
 CELLS=${CELLS:-"ours cml scratch"}
+FORMULATION=${FORMULATION:-recipe}
+[[ "$FORMULATION" == paper || "$FORMULATION" == recipe ]] || { echo "table4_grid.sh: FORMULATION must be paper or recipe" >&2; exit 2; }
 
 for method in $CELLS; do
   dir="$OUT/tracking_${method}_s$SEED"
@@ -30,7 +36,8 @@ for method in $CELLS; do
   already_done "$method" "$result" && continue
   say "== $method: $(date -u +%H:%M:%S) training to $ITERATIONS iterations in $dir"
   if [[ "$method" == scratch ]]; then base=(--motions "$MOTIONS"); else base=(--base "$BASE"); fi
+  # shellcheck disable=SC2046
   train_or_resume "$dir" "$ITERATIONS" --task tracking --method "$method" "${base[@]}" --generator "$GENERATOR" \
-    --designated arms --threads "$THREADS" --seed "$SEED"
+    --designated arms --threads "$THREADS" --seed "$SEED" $([[ "$FORMULATION" == paper ]] && paper_formulation_args tracking "$method" 0)
   cmd "$BIN" eval-residual "$dir/checkpoint.bin" --task tracking --num-prompts 10 --seconds 5 --repeats 3 --out "$result"
 done

@@ -284,7 +284,7 @@ void run_train_residual(const Args& a) {
     if (a.term_threshold >= 0) c.term_threshold = a.term_threshold;
     if (a.tracking_reward_scale > 0) c.tracking_reward_scale = a.tracking_reward_scale;
     if (!a.hidden.empty()) c.residual_hidden = a.hidden;
-    if (a.residual_std > 0) c.residual_std = a.residual_std;
+    if (a.residual_std >= 0) c.residual_std = a.residual_std;
     if (a.blend_resets >= 0) c.blend_resets = a.blend_resets;
     if (a.noise_hold_steps > 0) c.noise_hold_steps = a.noise_hold_steps;
     if (a.location_facing_weight >= 0) c.location_facing_weight = a.location_facing_weight;
@@ -312,7 +312,7 @@ void run_train_residual(const Args& a) {
     if (c.task == "tracking") {  // the preset's tracking settings where no flag says otherwise (train/goal_recipe.hpp)
       const TrackingRecipe t = tracking_recipe(a.preset.empty() ? "cpu" : a.preset);
       if (a.objective_weights.empty()) c.objective_weights = t.objective_weights;
-      if (a.residual_std <= 0 && a.part_std.empty() && t.designated_std > 0) {
+      if (a.residual_std < 0 && a.part_std.empty() && t.designated_std > 0) {  // (--residual-std 0: the base's σ)
         const PartMask designated = PartMask::parse(c.designated, "--designated");
         for (int p = 0; p < kNumParts; ++p)
           if (designated.has(static_cast<BodyPart>(p))) c.residual_part_std[static_cast<std::size_t>(p)] = t.designated_std;
@@ -829,8 +829,9 @@ const bool registered = maskadapt::cli::register_command([](CLI::App& app) {
   keep(c->add_option("--gain", a->gain, "fixed | scalar | per_dof"))->check(one_of({"fixed", "scalar", "per_dof"}));
   keep(c->add_option("--hidden", a->hidden, "residual hidden sizes"))->transform(integer_in(1, 16384));
   keep(c->add_option("--residual-std", a->residual_std,
-                     "σ of the residual's exploration on the adapted DoFs (action units; default: the base's σ; tracking with the cpu preset: 0.5 on the designated parts)"))
-      ->check(positive_real(10.0));
+                     "σ of the residual's exploration on the adapted DoFs (action units; 0: the base's σ, the default; tracking "
+                     "with the cpu preset: 0.5 on the designated parts)"))
+      ->check(real_in(0.0, 10.0));
   keep(c->add_option("--noise-hold-steps", a->noise_hold_steps,
                      "control steps each draw of exploration noise is held (default 1: fresh every step)"))
       ->transform(integer_in(1, 100000));

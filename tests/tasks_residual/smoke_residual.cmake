@@ -62,6 +62,15 @@ string(JSON nparts LENGTH "${rc}" residual_part_std)
 if(NOT nw EQUAL 0 OR NOT nparts EQUAL 0)
   message(FATAL_ERROR "track_paper/residual_config.json: ${nw} objective weights, σ on ${nparts} parts; the paper's has none")
 endif()
+# --residual-std 0 (the base's σ) wins over the recipe's σ on the arms
+run("train-residual tracking --residual-std 0" train-residual --task tracking --base ${BASE} --generator ${OUT}/gen.ckpt
+    --residual-std 0 --goal-trajectories 2 --iterations 1 ${tiny} --out ${OUT}/track_base_std)
+file(READ ${OUT}/track_base_std/residual_config.json rc)
+string(JSON nparts LENGTH "${rc}" residual_part_std)
+string(JSON rstd GET "${rc}" residual_std)
+if(NOT nparts EQUAL 0 OR NOT rstd EQUAL 0)
+  message(FATAL_ERROR "track_base_std/residual_config.json: σ on ${nparts} parts, residual_std ${rstd}; expected none and 0")
+endif()
 
 run("play-residual --mask-schedule" play-residual ${OUT}/comp_ours/checkpoint.bin --mask-schedule "0:lower_body,0.5:arms"
     --seconds 1 --bvh ${OUT}/comp.bvh --rollout ${OUT}/comp.json)
