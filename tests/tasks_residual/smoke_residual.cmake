@@ -54,20 +54,23 @@ if(NOT w0 EQUAL 0.1 OR NOT w1 EQUAL 0.9 OR NOT sl EQUAL 0.5 OR NOT sr EQUAL 0.5 
   message(FATAL_ERROR "track/residual_config.json: objective_weights ${w0} ${w1}, arms σ ${sl} ${sr} (${nparts} parts); "
                       "the cpu recipe is 0.1 0.9 and σ 0.5 on the two arms")
 endif()
-run("train-residual tracking --preset paper" train-residual --task tracking --base ${BASE} --generator ${OUT}/gen.ckpt
-    --preset paper --goal-trajectories 2 --iterations 1 --envs 2 --threads 1 --hidden 16 --episode-seconds 1 --out ${OUT}/track_paper)
-file(READ ${OUT}/track_paper/residual_config.json rc)
-string(JSON nw LENGTH "${rc}" objective_weights)
-string(JSON nparts LENGTH "${rc}" residual_part_std)
+# train_tracking(NAME ARGS...): one tracking iteration into ${OUT}/NAME; its residual_config.json in RC
+function(train_tracking name)
+  run("train-residual tracking (${name})" train-residual --task tracking --base ${BASE} --generator ${OUT}/gen.ckpt
+      --goal-trajectories 2 --iterations 1 ${ARGN} --out ${OUT}/${name})
+  file(READ ${OUT}/${name}/residual_config.json rc)
+  set(RC "${rc}" PARENT_SCOPE)
+endfunction()
+train_tracking(track_paper --preset paper --envs 2 --threads 1 --hidden 16 --episode-seconds 1)
+string(JSON nw LENGTH "${RC}" objective_weights)
+string(JSON nparts LENGTH "${RC}" residual_part_std)
 if(NOT nw EQUAL 0 OR NOT nparts EQUAL 0)
   message(FATAL_ERROR "track_paper/residual_config.json: ${nw} objective weights, σ on ${nparts} parts; the paper's has none")
 endif()
 # --residual-std 0 (the base's σ) wins over the recipe's σ on the arms
-run("train-residual tracking --residual-std 0" train-residual --task tracking --base ${BASE} --generator ${OUT}/gen.ckpt
-    --residual-std 0 --goal-trajectories 2 --iterations 1 ${tiny} --out ${OUT}/track_base_std)
-file(READ ${OUT}/track_base_std/residual_config.json rc)
-string(JSON nparts LENGTH "${rc}" residual_part_std)
-string(JSON rstd GET "${rc}" residual_std)
+train_tracking(track_base_std --residual-std 0 ${tiny})
+string(JSON nparts LENGTH "${RC}" residual_part_std)
+string(JSON rstd GET "${RC}" residual_std)
 if(NOT nparts EQUAL 0 OR NOT rstd EQUAL 0)
   message(FATAL_ERROR "track_base_std/residual_config.json: σ on ${nparts} parts, residual_std ${rstd}; expected none and 0")
 endif()
