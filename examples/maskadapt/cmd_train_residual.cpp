@@ -62,6 +62,7 @@ struct Args {
          location_facing_weight = -1, location_position_weight = -1, strike_approach_weight = -1, location_divergence = -1,
          location_arrive_distance = -1, location_reach_bonus = -1;
   std::vector<double> location_distance;  ///< [min, max] (m)
+  std::vector<double> residual_std_decay;  ///< [factor, iterations]
   std::vector<double> strike_distance;    ///< [min, max] (m)
   std::vector<std::string> part_std;      ///< "PARTS=σ" items
   std::vector<std::string> part_objective_weights;  ///< "PARTS=w1,w2,…" items
@@ -287,6 +288,14 @@ void run_train_residual(const Args& a) {
     if (a.residual_std >= 0) c.residual_std = a.residual_std;
     if (a.blend_resets >= 0) c.blend_resets = a.blend_resets;
     if (a.noise_hold_steps > 0) c.noise_hold_steps = a.noise_hold_steps;
+    if (!a.residual_std_decay.empty()) {
+      require(a.residual_std_decay.size() == 2, "expected two values, FACTOR ITERATIONS", {{}, {}, "--residual-std-decay"});
+      const double n = a.residual_std_decay[1];
+      require(n >= 1 && n <= 1e9 && n == std::floor(n), "ITERATIONS must be a whole number >= 1, got " + nlohmann::json(n).dump(),
+              {{}, {}, "--residual-std-decay"});
+      c.residual_std_decay_factor = a.residual_std_decay[0];
+      c.residual_std_decay_iterations = static_cast<int>(n);
+    }
     if (a.location_facing_weight >= 0) c.location_facing_weight = a.location_facing_weight;
     if (a.location_position_weight >= 0) c.location_position_weight = a.location_position_weight;
     assign_min_max(a.location_distance, "--location-distance", c.location_min_distance, c.location_max_distance);
@@ -355,6 +364,7 @@ void run_train_residual(const Args& a) {
                               {"env.episode_seconds", "--episode-seconds"}, {"switch_rate", "--switch-rate"},
                               {"masks", "--masks"}, {"task", "--task"}, {"method", "--method"}, {"blend_resets", "--blend-resets"},
                               {"noise_hold_steps", "--noise-hold-steps"}, {"objective_weights", "--objective-weights"},
+                              {"residual_std_decay", "--residual-std-decay"},
                               {"location_facing_weight", "--location-facing-weight"},
                               {"location_position_weight", "--location-position-weight"},
                               {"strike_approach_weight", "--strike-approach-weight"},
@@ -835,6 +845,11 @@ const bool registered = maskadapt::cli::register_command([](CLI::App& app) {
   keep(c->add_option("--noise-hold-steps", a->noise_hold_steps,
                      "control steps each draw of exploration noise is held (default 1: fresh every step)"))
       ->transform(integer_in(1, 100000));
+  keep(c->add_option("--residual-std-decay", a->residual_std_decay,
+                     "FACTOR ITERATIONS: the residual's σ falls geometrically to FACTOR (in (0, 1]) times its initial value "
+                     "over the first ITERATIONS iterations (default: a fixed σ, the paper's)"))
+      ->expected(2)
+      ->check(positive_real(1e9));
   keep(c->add_option("--location-facing-weight", a->location_facing_weight,
                      "location: weight of the facing shaping term (1 + f·d)/2 in the reward (default 0: the paper's)"))
       ->check(probability());

@@ -180,6 +180,63 @@ TEST(ResidualTrainer, ResumeContinuesBitExactly) {
   }
 }
 
+// The residual's σ decay: at the start of iteration k every residual DoF's log σ is its initial
+// value + min(1, k / N)·log(factor) (closed form; here factor 0.25 over N = 2 iterations, so the
+// 3rd and 4th iterations run at a quarter of the initial σ), and a run resumed after 2 iterations
+// continues the schedule bit for bit. A factor outside (0, 1], a
+// negative count, or a decay on AdaptNet is refused naming residual_std_decay; the JSON keeps it.
+TEST(ResidualTrainer, ResidualSigmaDecaysOnItsScheduleAndResumesBitExactly) {
+  MASKADAPT_REQUIRE_REQUESTED_BLAS_CORE();
+  Data d;
+  ResidualTrainConfig cfg = tiny_config("tracking", "ours");
+  cfg.residual_std = 0.4;
+  cfg.residual_std_decay_factor = 0.25;
+  cfg.residual_std_decay_iterations = 2;
+  auto make = [&](TinyWalkerSim& sim) {
+    return std::make_unique<ResidualTrainer<TinyWalkerSim>>(sim, upright(sim.skeleton()), tiny_base(sim.skeleton()),
+                                                            tracking_setup(d, sim), cfg, nullptr,
+                                                            FallCriteria::for_skeleton(sim.skeleton(), {"l_leg", "r_leg"}, "head", 0.8));
+  };
+  TinyWalkerSim probe(4);
+  auto t = make(probe);
+  const VectorXf initial = t->policy().residual().log_std.params();
+  ASSERT_NEAR(std::exp(initial[0]), 0.4, 1e-6);
+  for (int k = 0; k < 4; ++k) {
+    (void)t->iterate();
+    const double expected = std::log(0.4) + std::min(1.0, k / 2.0) * std::log(0.25);
+    for (Index i = 0; i < initial.size(); ++i)
+      EXPECT_NEAR(t->policy().residual().log_std.params()[i], expected, 1e-6) << "iteration " << k + 1 << " DoF " << i;
+  }
+  const auto run = run_and_resume(make);
+  for (int i = 2; i < 4; ++i) {
+    EXPECT_EQ(run.resumed_stats[static_cast<std::size_t>(i - 2)].policy_loss, run.straight_stats[static_cast<std::size_t>(i)].policy_loss)
+        << "iteration " << i + 1;
+    EXPECT_EQ(run.resumed_stats[static_cast<std::size_t>(i - 2)].extra, run.straight_stats[static_cast<std::size_t>(i)].extra);
+  }
+  EXPECT_TRUE(same_bits(run.resumed->policy().residual().log_std.params(), run.straight->policy().residual().log_std.params()));
+  EXPECT_TRUE(same_bits(run.resumed->policy().residual().mean_net.params(), run.straight->policy().residual().mean_net.params()));
+
+  const ResidualTrainConfig back = residual_config_from_json(to_json(cfg));
+  EXPECT_EQ(back.residual_std_decay_factor, 0.25);
+  EXPECT_EQ(back.residual_std_decay_iterations, 2);
+  nlohmann::json old = to_json(cfg);
+  old.erase("residual_std_decay");  // written before the decay existed: a fixed σ
+  EXPECT_FALSE(residual_config_from_json(old).decays_std());
+  const auto bad = [&](auto change, const std::string& what) {
+    ResidualTrainConfig b = cfg;
+    change(b);
+    expect_error_naming([&] { b.validate(); }, "residual_std_decay", what);
+  };
+  bad([](ResidualTrainConfig& b) { b.residual_std_decay_factor = 1.5; }, "a factor above 1");
+  bad([](ResidualTrainConfig& b) { b.residual_std_decay_factor = 0.0; }, "a factor of 0");
+  bad([](ResidualTrainConfig& b) { b.residual_std_decay_factor = std::nan(""); }, "a NaN factor");
+  bad([](ResidualTrainConfig& b) { b.residual_std_decay_iterations = -1; }, "a negative count");
+  bad([](ResidualTrainConfig& b) { b.task = "location"; b.method = "adaptnet"; }, "a decay on AdaptNet");
+  nlohmann::json three = to_json(cfg);
+  three["residual_std_decay"] = {0.5, 2.5};
+  expect_error_naming([&] { residual_config_from_json(three); }, "residual_std_decay", "a fractional count");
+}
+
 // The windowed tracking termination physically resets the env: its episode step counter goes
 // back to 0 (and the pose to an RSI pose), not only the goal trajectory.
 TEST(ResidualTrainer, TrackingTerminationResetsTheEnv) {

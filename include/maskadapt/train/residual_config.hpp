@@ -59,6 +59,15 @@ struct ResidualTrainConfig {
   /// log-probability is taken under that step's Gaussian, as with state-dependent exploration
   /// (gSDE's sample frequency). Evaluation uses the mean and is unaffected.
   int noise_hold_steps = 1;
+  /// σ_ψ decay: every residual DoF's σ falls geometrically from its initial value (residual_std /
+  /// residual_part_std / the base's) to `residual_std_decay_factor` times it over the first
+  /// `residual_std_decay_iterations` iterations, σ(it) = σ(0)·factor^min(1, it / iterations), set at
+  /// the start of each iteration (so one iteration's rollout and update share one σ; a resumed run
+  /// continues the schedule bit-exactly). 1 / 0 = a fixed σ, the paper's. Residual methods only
+  /// (AdaptNet's σ is its own).
+  double residual_std_decay_factor = 1.0;
+  int residual_std_decay_iterations = 0;
+  bool decays_std() const { return residual_std_decay_iterations > 0 && residual_std_decay_factor != 1.0; }
   /// location: weight w of the facing shaping term (tasks::LocationConfig::facing_weight; 0 = the
   /// paper's reward)
   double location_facing_weight = 0.0;
@@ -138,6 +147,12 @@ struct ResidualTrainConfig {
             {{}, {}, "tracking_reward_scale"});
     require(noise_hold_steps >= 1 && noise_hold_steps <= 100000, "must be in [1, 100000] control steps",
             {{}, {}, "noise_hold_steps"});
+    require(std::isfinite(residual_std_decay_factor) && residual_std_decay_factor > 0 && residual_std_decay_factor <= 1,
+            "the factor must be in (0, 1] (1 = a fixed σ), got " + nlohmann::json(residual_std_decay_factor).dump(),
+            {{}, {}, "residual_std_decay"});
+    require(residual_std_decay_iterations >= 0, "the iterations must be >= 0 (0 = a fixed σ)", {{}, {}, "residual_std_decay"});
+    require(!decays_std() || method != "adaptnet", "AdaptNet explores with its own σ; the decay is the residual's",
+            {{}, {}, "residual_std_decay"});
     require(std::isfinite(location_facing_weight) && location_facing_weight >= 0 && location_facing_weight <= 1,
             "must be in [0, 1]", {{}, {}, "location_facing_weight"});
     require(location_facing_weight == 0 || task == "location",
@@ -313,14 +328,15 @@ inline std::array<double, kNumParts> parse_part_std(const std::vector<std::strin
   });
 }
 
-/// The [min, max] pair at `key` of a residual_config JSON into `min`, `max` ([lo, hi] when absent:
-/// written before the key existed); anything but two numbers throws naming `file` and `key`.
-inline void read_min_max(const nlohmann::json& j, const std::string& key, double lo, double hi, const std::string& file,
-                         double& min, double& max) {
-  const auto v = j.value(key, std::vector<double>{lo, hi});
-  if (v.size() != 2) throw Error("expected [min, max] (m)", {file, std::nullopt, key});
-  min = v[0];
-  max = v[1];
+/// The two-number entry at `key` of a residual_config JSON (`what` says which, e.g. "[min, max]
+/// (m)") into `first`, `second` ([a, b] when absent: written before the key existed); anything but
+/// two numbers throws naming `file` and `key`.
+inline void read_pair(const nlohmann::json& j, const std::string& key, double a, double b, const std::string& what,
+                      const std::string& file, double& first, double& second) {
+  const auto v = j.value(key, std::vector<double>{a, b});
+  if (v.size() != 2) throw Error("expected " + what, {file, std::nullopt, key});
+  first = v[0];
+  second = v[1];
 }
 
 inline nlohmann::json to_json(const ResidualTrainConfig& c) {
@@ -340,6 +356,7 @@ inline nlohmann::json to_json(const ResidualTrainConfig& c) {
           {"residual_std", c.residual_std},
           {"residual_part_std", part_std_to_json(c.residual_part_std)},
           {"noise_hold_steps", c.noise_hold_steps},
+          {"residual_std_decay", {c.residual_std_decay_factor, static_cast<double>(c.residual_std_decay_iterations)}},
           {"location_facing_weight", c.location_facing_weight},
           {"location_position_weight", c.location_position_weight},
           {"location_distance", {c.location_min_distance, c.location_max_distance}},
@@ -382,17 +399,24 @@ inline ResidualTrainConfig residual_config_from_json(const nlohmann::json& j, co
     c.init_gain = j.at("init_gain");
     c.residual_std = j.value("residual_std", 0.0);  // (absent before it was recorded: the base's σ)
     c.noise_hold_steps = j.value("noise_hold_steps", 1);  // (absent before it existed: fresh noise every step)
+    {  // (absent before it existed: a fixed σ)
+      double iterations = 0;
+      read_pair(j, "residual_std_decay", 1.0, 0.0, "[factor, iterations]", file, c.residual_std_decay_factor, iterations);
+      if (!(iterations >= 0 && iterations <= 1e9 && iterations == std::floor(iterations)))
+        throw Error("the iterations must be a whole number >= 0", {file, std::nullopt, "residual_std_decay"});
+      c.residual_std_decay_iterations = static_cast<int>(iterations);
+    }
     c.location_facing_weight = j.value("location_facing_weight", 0.0);  // (absent before it existed: the paper's reward)
     c.location_position_weight = j.value("location_position_weight", 0.0);  // (absent before it existed: the paper's reward)
     // (the three below absent before they existed: every part at residual_std, 1–5 m, no divergence test)
     c.residual_part_std = part_std_from_json(j.value("residual_part_std", nlohmann::json::object()), file);
-    read_min_max(j, "location_distance", 1.0, 5.0, file, c.location_min_distance, c.location_max_distance);
+    read_pair(j, "location_distance", 1.0, 5.0, "[min, max] (m)", file, c.location_min_distance, c.location_max_distance);
     c.location_divergence = j.value("location_divergence", 0.0);
     c.location_arrive_distance = j.value("location_arrive_distance", 0.0);  // (absent before it existed: off)
     c.location_reach_bonus = j.value("location_reach_bonus", 0.0);          // (absent before it existed: off)
     c.strike_approach_weight = j.value("strike_approach_weight", 0.0);  // (absent before it existed: the paper's reward)
     // (the three below absent before they existed: the paper's 1–3 m, other bodies may touch, one box per episode)
-    read_min_max(j, "strike_distance", 1.0, 3.0, file, c.strike_min_distance, c.strike_max_distance);
+    read_pair(j, "strike_distance", 1.0, 3.0, "[min, max] (m)", file, c.strike_min_distance, c.strike_max_distance);
     c.strike_end_on_foreign_contact = j.value("strike_end_on_foreign_contact", false);
     c.strike_next_box_steps = j.value("strike_next_box_steps", 0);
     c.designated = j.at("designated");

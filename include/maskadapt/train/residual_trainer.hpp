@@ -136,6 +136,7 @@ class ResidualTrainer {
     Rng init = Rng::stream(cfg_.rl.run.seed, 0x2E51ULL);
     const nn::Activation activation = residual_activation(cfg_.rl.net.activation);
     policy_ = make_stage2_policy<Policy>(std::move(base), task_.obs_dim(), sim.skeleton(), cfg_, setup_.goal.goal_dim(), init);
+    if constexpr (decaying_std) initial_log_std_ = policy_.residual().log_std.params();  // (before any checkpoint)
     K_ = static_cast<Index>(setup_.discriminators.size()) + (setup_.goal ? 1 : 0);
     for (const auto& d : setup_.discriminators) weights_.push_back(d.weight);
     if (setup_.goal) weights_.push_back(setup_.goal_weight);
@@ -208,6 +209,7 @@ class ResidualTrainer {
       setup_.goal.begin_iteration(iteration_);
       setup_.goal.clear_trials();
     }
+    apply_std_decay();
     collect(st);
     if (setup_.goal) {
       tasks::TrialCounter tr = setup_.goal.trials();
@@ -281,7 +283,21 @@ class ResidualTrainer {
     if (c.contains("state/rng")) load_training_state(c);
   }
 
+  /// σ_ψ of this iteration under the config's decay (ResidualTrainConfig::residual_std_decay_*):
+  /// log σ = log σ(0) + min(1, it / iterations)·log factor on every residual DoF. No-op without one.
+  void apply_std_decay() {
+    if constexpr (decaying_std) {
+      if (!cfg_.decays_std()) return;
+      const double progress = std::min(1.0, static_cast<double>(iteration_) / cfg_.residual_std_decay_iterations);
+      const auto shift = static_cast<float>(progress * std::log(cfg_.residual_std_decay_factor));
+      policy_.residual().log_std.params() = (initial_log_std_.array() + shift).matrix();
+    }
+  }
+
  private:
+  /// Whether the policy has a residual σ the decay can set (ResidualPolicy; not AdaptNet).
+  static constexpr bool decaying_std = requires(Policy& p) { p.residual().log_std.params(); };
+  VectorXf initial_log_std_;  ///< the residual's log σ at construction (the decay's σ(0))
   // ---- checkpoint: optimiser, RNG, task and tracking state ---------------------------------
   void save_training_state(Checkpoint& c) const {
     auto& self = const_cast<ResidualTrainer&>(*this);  // block accessors are non-const only; nothing changes
