@@ -75,16 +75,20 @@ inline void extract_goals(const Skeleton& skel, const std::vector<int>& bodies, 
   }
 }
 
-/// Σ_b angle(R*_b⁻¹ R_b)² over `bodies` (rad²): target hinge angles q* (num_dofs) vs the
-/// simulated body orientations.
+/// angle(R*_b⁻¹ R_b) (rad) of body `b`: its target hinge angles q* (num_dofs) vs its simulated
+/// local joint rotation R_b = R_world(parent)⁻¹ R_world(b).
+inline double rotation_error(const Skeleton& skel, int b, const Eigen::Ref<const VectorXd>& q_target, const BodyStates& sim) {
+  const int p = skel.parents[static_cast<std::size_t>(b)];
+  const Quat local = (sim.rot[static_cast<std::size_t>(p)].conjugate() * sim.rot[static_cast<std::size_t>(b)]).normalized();
+  return joint_rotation(skel, b, q_target).angularDistance(local);
+}
+
+/// Σ_b angle(R*_b⁻¹ R_b)² over `bodies` (rad²), `rotation_error` of each.
 inline double rotation_error_sq(const Skeleton& skel, const std::vector<int>& bodies,
                                 const Eigen::Ref<const VectorXd>& q_target, const BodyStates& sim) {
   double e = 0;
   for (int b : bodies) {
-    const int p = skel.parents[static_cast<std::size_t>(b)];
-    const Quat local = (sim.rot[static_cast<std::size_t>(p)].conjugate() * sim.rot[static_cast<std::size_t>(b)]).normalized();
-    const Quat target = joint_rotation(skel, b, q_target);
-    const double a = target.angularDistance(local);
+    const double a = rotation_error(skel, b, q_target, sim);
     e += a * a;
   }
   return e;

@@ -269,11 +269,8 @@ TrackingEvaluation evaluate_tracking(Sim& sim, const adapt::ResidualPolicy<float
           actual.col(static_cast<Index>(j)) = tracking::heading_local(b.pos.col(bi), b.pos.col(0), b.rot[0]);
         }
         eps[ue].add_frame(actual, target);
-        for (int bi : bodies) {
-          const Quat local = (b.rot[static_cast<std::size_t>(skel.parents[static_cast<std::size_t>(bi)])].conjugate() *
-                              b.rot[static_cast<std::size_t>(bi)]).normalized();
-          rot_sum[ue] += joint_rotation(skel, bi, tr.q.col(t + 1)).angularDistance(local) / static_cast<double>(bodies.size());
-        }
+        for (int bi : bodies)
+          rot_sum[ue] += tracking::rotation_error(skel, bi, tr.q.col(t + 1), b) / static_cast<double>(bodies.size());
         sim_rest[ue].col(t) = visitation_features(skel, b, rest);
         if (has_fallen(fall, b, sim.contacts(ue))) {
           fell[ue] = true;
