@@ -185,6 +185,46 @@ TEST(MotionLibrary, AmpWindowsAreObservationsOfFiveFrames) {
   EXPECT_TRUE(s.qd.allFinite());
 }
 
+// Shorter windows (a discriminator that sees F < 5 frames, BaseTrainConfig::disc.window_frames):
+// the window of F frames ending at t is the last F frames of the 5-frame one, bit for bit, on a
+// 30-fps clip (shared poses) and at other rates; a batch drawn from the same seed is the last F
+// frames of the 5-frame batch; sizes other than 1–5 frames are refused.
+TEST(MotionLibrary, ShorterAmpWindowsAreTheLastFramesOfTheFiveFrameWindow) {
+  MotionLibrary lib(humanoid_skeleton());
+  lib.add(synthetic_walk());
+  MotionClip once = synthetic_kick();
+  once.loop = false;
+  lib.add(once);
+  MotionClip fast = synthetic_kick();
+  fast.fps = 60;
+  lib.add(fast);
+  const Index d = kObservationDim;
+  VectorXf five(lib.amp_window_dim());
+  for (int frames = 1; frames <= kAmpWindowFrames; ++frames) {
+    VectorXf w(lib.amp_window_dim(frames));
+    ASSERT_EQ(w.size(), frames * d);
+    for (int clip : {0, 1, 2})
+      for (double t : {1.0, 0.1371, 2.0 / 30.0, lib.clip(clip).duration() + 0.2}) {
+        lib.amp_window(clip, t, five);
+        lib.amp_window(clip, t, w);
+        EXPECT_EQ(w, five.tail(frames * d)) << frames << " frames, clip " << clip << " t " << t;
+      }
+    Rng a(7), b(7);
+    const MatrixXf batch5 = lib.sample_amp_windows(a, 6);
+    MatrixXf batch(frames * d, 6);
+    lib.sample_amp_windows(b, batch);
+    EXPECT_EQ(batch, batch5.bottomRows(frames * d));
+  }
+  EXPECT_THROW(lib.amp_window_dim(0), Error);
+  EXPECT_THROW(lib.amp_window_dim(kAmpWindowFrames + 1), Error);
+  VectorXf odd(2 * d + 1), six(6 * d);
+  EXPECT_THROW(lib.amp_window(0, 1.0, odd), Error);
+  EXPECT_THROW(lib.amp_window(0, 1.0, six), Error);
+  Rng rng(1);
+  MatrixXf bad(6 * d, 2);
+  EXPECT_THROW(lib.sample_amp_windows(rng, bad), Error);
+}
+
 TEST(MotionLibrary, VisitationFeaturesSelectPartsAndIgnoreHeading) {
   const Skeleton& s = humanoid_skeleton();
   KinematicState st = synthetic_walk().frame(5);

@@ -231,34 +231,49 @@ class MotionLibrary {
 
   /// Dimension of one AMP window: kAmpWindowFrames × observation_dim.
   Index amp_window_dim() const { return kAmpWindowFrames * observation_dim(skel_); }
+  /// Dimension of a window of `frames` consecutive frames (1 ≤ frames ≤ kAmpWindowFrames):
+  /// frames × observation_dim. A discriminator may see fewer frames than the task keeps
+  /// (BaseTrainConfig::disc.window_frames: the paper's D(s, s′) is 2).
+  Index amp_window_dim(int frames) const {
+    require(frames >= 1 && frames <= kAmpWindowFrames,
+            "an AMP window holds 1 to " + std::to_string(kAmpWindowFrames) + " frames, not " + std::to_string(frames),
+            {{}, {}, "window_frames"});
+    return frames * observation_dim(skel_);
+  }
 
-  /// The AMP sample ending at `t_end`: observations (motion/observation.hpp) of the frames at
-  /// t_end − 4Δ, …, t_end (Δ = 1/30 s), oldest first, stacked into `out` (amp_window_dim()).
+  /// The AMP sample ending at `t_end`: observations (motion/observation.hpp) of the F frames at
+  /// t_end − (F−1)Δ, …, t_end (Δ = 1/30 s), oldest first, stacked into `out`, whose size gives F
+  /// (F · observation_dim, 1 ≤ F ≤ kAmpWindowFrames; the default window is F = 5). A window of F
+  /// frames is the last F frames of the longer one ending at the same time, bit for bit.
   ///
   /// On a clip recorded at 1/Δ = 30 fps, the central differences of neighbouring window frames share
-  /// their poses (frame k's t + h is frame k+1's time), so the window interpolates 7 poses, not 15:
-  /// t_end − 5Δ … t_end + Δ. The shared pose's time differs from t_k ± h by rounding only
+  /// their poses (frame k's t + h is frame k+1's time), so the window interpolates F + 2 poses, not
+  /// 3F: t_end − FΔ … t_end + Δ. The shared pose's time differs from t_k ± h by rounding only
   /// (≤ 1e−15 s); clamping at the ends of a non-looping clip is the same as clip_state's.
   void amp_window(int clip, double t_end, Eigen::Ref<VectorXf> out) const {
     const Index d = observation_dim(skel_);
-    require(out.size() == amp_window_dim(), "AMP window output has the wrong size", {{}, {}, "amp_window"});
+    require(out.size() % d == 0 && out.size() / d >= 1 && out.size() / d <= kAmpWindowFrames,
+            "AMP window output has the wrong size (" + std::to_string(out.size()) + "; expected 1 to " +
+                std::to_string(kAmpWindowFrames) + " times " + std::to_string(d) + ")",
+            {{}, {}, "amp_window"});
+    const int frames = static_cast<int>(out.size() / d);
     const MotionClip& c = this->clip(clip);
     // per-thread pose buffers: a batch of windows allocates nothing once each thread has seen one
     thread_local WindowScratch scratch;
     BodyStates& bs = scratch.bodies;
-    const auto frame_time = [&](int k) { return t_end - (kAmpWindowFrames - 1 - k) * kAmpFrameDt; };
+    const auto frame_time = [&](int k) { return t_end - (frames - 1 - k) * kAmpFrameDt; };
     if (std::abs(c.fps * kAmpFrameDt - 1.0) > 1e-12) {  // other frame rates: every frame on its own
-      for (int k = 0; k < kAmpWindowFrames; ++k) {
+      for (int k = 0; k < frames; ++k) {
         body_states(clip, frame_time(k), bs);
         compute_observation(skel_, bs, out.segment(k * d, d));
       }
       return;
     }
-    // grid pose j at t_end − (kAmpWindowFrames − j)·Δ, j = 0 … kAmpWindowFrames + 1
+    // grid pose j at t_end − (frames − j)·Δ, j = 0 … frames + 1
     auto& grid = scratch.grid;
-    for (int j = 0; j < kAmpWindowFrames + 2; ++j) clip_pose(skel_, c, frame_time(j - 1), grid[static_cast<std::size_t>(j)]);
+    for (int j = 0; j < frames + 2; ++j) clip_pose(skel_, c, frame_time(j - 1), grid[static_cast<std::size_t>(j)]);
     KinematicState& s = scratch.state;
-    for (int k = 0; k < kAmpWindowFrames; ++k) {
+    for (int k = 0; k < frames; ++k) {
       const KinematicState& pose = grid[static_cast<std::size_t>(k + 1)];
       s.root_pos = pose.root_pos;  // (the pose only: s keeps its velocity buffers)
       s.root_rot = pose.root_rot;
@@ -274,14 +289,20 @@ class MotionLibrary {
   /// A batch of AMP windows from sampled (clip, time): (amp_window_dim() × batch). The times
   /// are drawn in order from `rng`; the windows (5 poses, forward kinematics and features each)
   /// are then computed on `pool` when one is given — the same numbers for any pool size.
+  /// The times are drawn with the 5-frame window's margin for any window length, so a batch of
+  /// F-frame windows is the last F frames of the 5-frame batch drawn with the same `rng`.
   MatrixXf sample_amp_windows(Rng& rng, int batch, ThreadPool* pool = nullptr) const {
     MatrixXf out(amp_window_dim(), std::max(batch, 0));
     sample_amp_windows(rng, out, pool);
     return out;
   }
-  /// The same into `out` (amp_window_dim() × batch), one window per column.
+  /// The same into `out` (amp_window_dim(F) × batch), one window of F frames per column.
   void sample_amp_windows(Rng& rng, Eigen::Ref<MatrixXf> out, ThreadPool* pool = nullptr) const {
-    require(out.rows() == amp_window_dim(), "AMP window batch has the wrong number of rows", {{}, {}, "amp_windows"});
+    const Index d = observation_dim(skel_);
+    require(out.rows() % d == 0 && out.rows() / d >= 1 && out.rows() / d <= kAmpWindowFrames,
+            "AMP window batch has the wrong number of rows (" + std::to_string(out.rows()) + "; expected 1 to " +
+                std::to_string(kAmpWindowFrames) + " times " + std::to_string(d) + ")",
+            {{}, {}, "amp_windows"});
     const auto batch = static_cast<int>(out.cols());
     std::vector<ClipTime> times(static_cast<std::size_t>(batch));
     for (auto& ct : times) ct = sample(rng, true, (kAmpWindowFrames - 1) * kAmpFrameDt);
