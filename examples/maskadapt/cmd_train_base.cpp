@@ -29,7 +29,7 @@ struct TrainBaseArgs {
   int envs = -1, threads = -1;
   long long iterations = -1, checkpoint_every = -1;
   double minutes = -1, lambda_mi = -1, mask_prob = -1, mi_target_tau = -1;
-  int max_parts = -1;
+  int max_parts = -1, disc_frames = -1;
   long long seed = -1, mask_warmup_samples = -1, mask_ramp_samples = -1;
   bool no_mask = false;
   bool keep_checkpoints = false;
@@ -44,7 +44,7 @@ const std::vector<std::pair<std::string, std::string>> kFieldFlags = {
     {"mask.prob", "--mask-prob"},       {"mask.max_parts", "--max-parts"},
     {"mask.warmup_samples", "--mask-warmup-samples"}, {"mask.mi_gradient", "--mi-gradient"}, {"mask.mi_target_tau", "--mi-target-tau"}, {"mask.hidden_value", "--hidden-value"}, {"mask.ramp_samples", "--mask-ramp-samples"},
     {"net.action_offset", "--action-offset"}, {"net.action_scale", "--action-scale"},
-    {"ppo.actor_lr_schedule", "--actor-lr-schedule"}};
+    {"ppo.actor_lr_schedule", "--actor-lr-schedule"}, {"disc.window_frames", "--disc-frames"}};
 
 void run_train_base(const TrainBaseArgs& a) {
   using namespace maskadapt;
@@ -86,6 +86,14 @@ void run_train_base(const TrainBaseArgs& a) {
   if (!a.action_offset.empty()) cfg.net.action_offset = a.action_offset;
   if (!a.action_scale.empty()) cfg.net.action_scale = a.action_scale;
   if (!a.actor_lr_schedule.empty()) cfg.ppo.actor_lr_schedule = a.actor_lr_schedule;
+  if (a.disc_frames >= 1) {
+    // (the discriminator's input size is fixed by its weights: a resumed run keeps its window)
+    require(!resume || a.disc_frames == cfg.disc.window_frames,
+            "the checkpoint's discriminator sees " + std::to_string(cfg.disc.window_frames) +
+                " frames; a resumed run cannot change its window to " + std::to_string(a.disc_frames),
+            {a.resume, std::nullopt, "--disc-frames"});
+    cfg.disc.window_frames = a.disc_frames;
+  }
   cli::validate_naming_flags([&] { cfg.validate("command line"); }, kFieldFlags);
 #ifndef MASKADAPT_HAS_MUJOCO
   throw Error("this build has no MuJoCo; train-base needs the maskadapt::mujoco target", {{}, std::nullopt, "train-base"});
@@ -172,6 +180,9 @@ const bool registered = maskadapt::cli::register_command([](CLI::App& app) {
                            ->check(one_of({"one", "half_range"}));
   c->add_option("--actor-lr-schedule", args->actor_lr_schedule, "fixed | adaptive (the actor's rate follows PPO's KL, docs/training.md)")
       ->check(one_of({"fixed", "adaptive"}));
+  c->add_option("--disc-frames", args->disc_frames,
+                 "frames of the AMP window the discriminator sees, the last of 5 (2: the paper's D(s, s'); default: the preset's)")
+      ->transform(integer_in(1, maskadapt::kAmpWindowFrames));
   c->add_option("--resume", args->resume, "continue from a checkpoint")
       ->excludes(preset)->excludes(offset)->excludes(scale)->excludes(character);
   c->add_option("--checkpoint-every", args->checkpoint_every, "checkpoint period in iterations")->transform(positive_integer());

@@ -54,7 +54,7 @@ struct Args {
   std::vector<std::string> new_motion, masks, motions, texts;
   std::string designated = "arms", goal_parts, character;
   // Numeric values were range-checked while parsing (cli_checks.hpp); −1 means "not given".
-  int envs = -1, threads = -1, goal_trajectories = -1, sample_every = -1, noise_hold_steps = -1, strike_next_box = -1;
+  int envs = -1, threads = -1, goal_trajectories = -1, sample_every = -1, noise_hold_steps = -1, strike_next_box = -1, disc_frames = -1;
   int strike_end_on_foreign_contact = 0;  ///< +1 given, -1 its --no- form, 0 neither (the preset's)
   std::vector<double> objective_weights;
   long long iterations = -1, seed = -1;
@@ -288,6 +288,7 @@ void run_train_residual(const Args& a) {
     if (a.residual_std >= 0) c.residual_std = a.residual_std;
     if (a.blend_resets >= 0) c.blend_resets = a.blend_resets;
     if (a.noise_hold_steps > 0) c.noise_hold_steps = a.noise_hold_steps;
+    if (a.disc_frames > 0) c.rl.disc.window_frames = a.disc_frames;
     if (!a.residual_std_decay.empty()) {
       require(a.residual_std_decay.size() == 2, "expected two values, FACTOR ITERATIONS", {{}, {}, "--residual-std-decay"});
       const double n = a.residual_std_decay[1];
@@ -842,6 +843,10 @@ const bool registered = maskadapt::cli::register_command([](CLI::App& app) {
                      "σ of the residual's exploration on the adapted DoFs (action units; 0: the base's σ, the default; tracking "
                      "with the cpu preset: 0.5 on the designated parts)"))
       ->check(real_in(0.0, 10.0));
+  keep(c->add_option("--disc-frames", a->disc_frames,
+                     "frames of the 5-frame window the reward discriminators see, the last ones (2: the paper's "
+                     "D(s, s'|m); default: the preset's, 5)"))
+      ->transform(integer_in(1, maskadapt::kAmpWindowFrames));
   keep(c->add_option("--noise-hold-steps", a->noise_hold_steps,
                      "control steps each draw of exploration noise is held (default 1: fresh every step)"))
       ->transform(integer_in(1, 100000));

@@ -4,6 +4,7 @@
 #include "trainer_test_helpers.hpp"
 
 #include <maskadapt/train/base_trainer.hpp>
+#include <maskadapt/train/reward_discriminators.hpp>
 #include <maskadapt/train/run_loop.hpp>
 #include <maskadapt/train/residual_trainer.hpp>
 
@@ -25,14 +26,15 @@ using maskadapt::testing::upright;
 
 namespace {
 
-// "Motion library" of the tiny walker: a sinusoidal swing of the legs, 5 frames at 30 Hz.
+// "Motion library" of the tiny walker: a sinusoidal swing of the legs, windows of F = out.rows() / d
+// frames at 30 Hz (the last F of 5).
 RealWindowSampler swing_windows(const Skeleton& skel) {
   return [&skel](Rng& rng, Eigen::Ref<MatrixXf> out) {
-    const Index d = observation_dim(skel);
+    const Index d = observation_dim(skel), frames = out.rows() / d;
     for (Index j = 0; j < out.cols(); ++j) {
       const double t0 = rng.uniform(0.0, 2.0);
-      for (Index f = 0; f < 5; ++f) {
-        const double t = t0 + f / 30.0;
+      for (Index f = 0; f < frames; ++f) {
+        const double t = t0 + static_cast<double>(kAmpWindowFrames - frames + f) / 30.0;
         KinematicState s = KinematicState::zero(skel);
         s.root_pos.z() = TinyWalkerSim::kHeight;
         s.q[skel.dof_offset(4)] = 0.4 * std::sin(4 * t);
@@ -396,6 +398,99 @@ TEST(BaseTrainer, LoadRejectsAMismatchedCheckpoint) {
   more_envs.env.num_envs = 6;
   TinyRun d(more_envs);
   EXPECT_THROW(d.trainer.load(c), Error);
+}
+
+// disc.window_frames = 2 (the paper's D(s, s′)): the discriminator's input is the last two frames
+// of the task's 5-frame window. Its rewards are its logits on exactly those rows of the rollout's
+// windows, its real batches are 2-frame windows, its replay buffer holds 2-frame windows, and the
+// run resumes bit-exactly and its checkpoint loads back as a base policy with that input.
+TEST(BaseTrainer, TwoFrameDiscriminatorSeesTheLastTwoFramesOfTheWindow) {
+  MASKADAPT_REQUIRE_REQUESTED_BLAS_CORE();
+  auto cfg = tiny_config();
+  cfg.disc.window_frames = 2;
+  TinyWalkerSim sim(static_cast<std::size_t>(cfg.env.num_envs));
+  const Index d = observation_dim(sim.skeleton());
+  std::vector<Index> real_rows;
+  const RealWindowSampler swing = swing_windows(sim.skeleton());
+  BaseTrainer<TinyWalkerSim> trainer(
+      sim, upright(sim.skeleton()),
+      [&](Rng& rng, Eigen::Ref<MatrixXf> out) {
+        real_rows.push_back(out.rows());
+        swing(rng, out);
+      },
+      cfg, nullptr, FallCriteria::for_skeleton(sim.skeleton(), {"l_leg", "r_leg"}, "head", cfg.env.termination_height));
+  ASSERT_EQ(trainer.disc_dim(), 2 * d);
+  ASSERT_EQ(trainer.policy().disc.config().feature_dim, 2 * d);
+  ASSERT_EQ(trainer.rollout().amp_windows.rows(), kAmpWindowFrames * d);  // (the task keeps 5 frames)
+  const rl::Discriminator<float> before = trainer.policy().disc;            // (the rewards use it; the update then moves it)
+  const auto st = trainer.iterate();
+  ASSERT_FALSE(real_rows.empty());
+  for (Index rows : real_rows) EXPECT_EQ(rows, 2 * d);
+  const MatrixXf& windows = trainer.rollout().amp_windows;
+  const RowVectorX<float> last_two = before.reward(windows.bottomRows(2 * d));
+  EXPECT_NEAR(st.disc_reward, last_two.cast<double>().mean(), 1e-12);
+  Checkpoint c;
+  trainer.save(c);
+  EXPECT_EQ(c.get_matrix<float>("replay/storage", 2 * d, cfg.disc.replay_size).rows(), 2 * d);
+  EXPECT_EQ(nlohmann::json::parse(c.get_string("config"))["disc"]["window_frames"], 2);
+  const LoadedBasePolicy loaded = load_base_policy(c, trainer.dims());
+  EXPECT_EQ(loaded.policy.disc.config().feature_dim, 2 * d);
+  EXPECT_EQ(loaded.policy.disc.net().params(), trainer.policy().disc.net().params());
+  expect_resume_is_bit_exact(cfg);
+  // a 5-frame trainer refuses the 2-frame checkpoint, naming the section
+  TinyRun five(tiny_config());
+  EXPECT_THROW(five.trainer.load(c), Error);
+}
+
+// Stage 2's reward discriminators with disc.window_frames = 2 (train-residual --disc-frames 2):
+// a member that saw the whole 5-frame window sees its last two frames' rows, a part member only
+// its rows within those frames; each reward row is the member's reward on exactly those rows, and
+// an update step runs on them (real, fake and the replay buffer sized to them).
+TEST(RewardDiscriminators, TwoFramesKeepEachMembersRowsOfTheLastTwoFrames) {
+  constexpr Index d = 6, W = d * kAmpWindowFrames, n = 40;
+  const std::vector<Index> part_rows = {1, 4, d + 1, d + 4, 2 * d + 1, 2 * d + 4, 3 * d + 1, 3 * d + 4, 4 * d + 1, 4 * d + 4};
+  auto sampler = [](Rng& r, Index B, MatrixXf& w, MatrixXf& m) {
+    w = MatrixXf::NullaryExpr(W, B, [&] { return static_cast<float>(r.normal()); });
+    m = MatrixXf::Zero(kNumParts, B);
+  };
+  BaseTrainConfig rl = tiny_config();
+  rl.disc.window_frames = 2;
+  rl.disc.batch_size = 16;
+  rl.disc.replay_size = 64;
+  Rng init(3);
+  RewardDiscriminators discs({{"whole", 0.5, {}, false, sampler, {}}, {"part", 0.5, part_rows, true, sampler, {}}}, W, rl,
+                             nn::Activation::ReLU, 0.0, init);
+  std::vector<Index> last_two(2 * d);
+  for (Index r = 0; r < 2 * d; ++r) last_two[static_cast<std::size_t>(r)] = 3 * d + r;
+  EXPECT_EQ(discs.sources()[0].rows, last_two);
+  EXPECT_EQ(discs.sources()[1].rows, (std::vector<Index>{3 * d + 1, 3 * d + 4, 4 * d + 1, 4 * d + 4}));
+  EXPECT_EQ(discs.set().members[0].config().feature_dim, 2 * d);
+  EXPECT_EQ(discs.set().members[1].config().feature_dim, 4);
+  Rng data(5);
+  const MatrixXf windows = MatrixXf::NullaryExpr(W, n, [&] { return static_cast<float>(data.normal()); });
+  const std::vector<PartMask> masks(static_cast<std::size_t>(n), PartMask::of(BodyPart::LeftArm));
+  MatrixXf rewards(2, n);
+  IterationStats st;
+  discs.rewards(windows, masks, rewards, true, st);
+  EXPECT_EQ(rewards.row(0), discs.set().members[0].reward(windows.bottomRows(2 * d)));
+  MatrixXf part(4, n);
+  for (Index j = 0; j < n; ++j)
+    for (Index r = 0; r < 4; ++r) part(r, j) = windows(discs.sources()[1].rows[static_cast<std::size_t>(r)], j);
+  EXPECT_EQ(rewards.row(1), discs.set().members[1].reward(part, tasks::mask_bits(masks)));
+  Rng steps(7);
+  discs.update(windows, masks, steps, st);
+  EXPECT_TRUE(std::isfinite(st.disc_loss));
+  MatrixXf after(2, n);
+  discs.rewards(windows, masks, after, false, st);
+  EXPECT_NE(after.row(0), rewards.row(0));  // (the step moved the whole-window member)
+  // five frames: the sources are left as they were
+  rl.disc.window_frames = kAmpWindowFrames;
+  Rng init5(3);
+  RewardDiscriminators five({{"whole", 0.5, {}, false, sampler, {}}, {"part", 0.5, part_rows, true, sampler, {}}}, W, rl,
+                            nn::Activation::ReLU, 0.0, init5);
+  EXPECT_TRUE(five.sources()[0].rows.empty());
+  EXPECT_EQ(five.sources()[1].rows, part_rows);
+  EXPECT_EQ(five.set().members[0].config().feature_dim, W);
 }
 
 TEST(BaseTrainer, DiscriminatorUsesTheGradientPenaltyOnRealSamples) {

@@ -86,6 +86,7 @@ TEST(TrainConfig, JsonRoundTripPreservesEveryField) {
   c.net.activation = "elu";
   c.ppo.minibatch_size = 77;
   c.disc.lsgan = true;
+  c.disc.window_frames = 2;
   c.ppo.actor_lr_schedule = "adaptive";
   c.ppo.adaptive_lr.desired_kl = 0.02;
   c.ppo.adaptive_lr.max_lr = 3e-3;
@@ -99,6 +100,7 @@ TEST(TrainConfig, JsonRoundTripPreservesEveryField) {
   EXPECT_EQ(back.env.motions, c.env.motions);
   EXPECT_FALSE(back.mask.enabled);
   EXPECT_TRUE(back.disc.lsgan);
+  EXPECT_EQ(back.disc.window_frames, 2);
 
   const auto path = (std::filesystem::temp_directory_path() / "maskadapt_cfg_roundtrip.json").string();
   save_config(c, path);
@@ -113,6 +115,17 @@ TEST(TrainConfig, MissingFieldsComeFromTheNamedPreset) {
   EXPECT_DOUBLE_EQ(c.ppo.critic_lr, 1e-4);
   const auto d = config_from_string("{}");
   EXPECT_EQ(to_json(d), to_json(cpu_preset()));
+}
+
+// disc.window_frames came after checkpoints that hold configs without it: those discriminators saw
+// the whole 5-frame window, so an absent field means 5 whatever the preset says.
+TEST(TrainConfig, AbsentDiscriminatorWindowMeansTheFiveFramesOfEarlierRuns) {
+  for (const char* preset : {"cpu", "paper"}) {
+    const auto c = config_from_string(std::string(R"({"preset": ")") + preset + R"(", "disc": {"lr": 2e-4}})");
+    EXPECT_EQ(c.disc.window_frames, 5) << preset;
+    EXPECT_EQ(config_from_string(std::string(R"({"preset": ")") + preset + R"("})").disc.window_frames, 5) << preset;
+  }
+  EXPECT_EQ(config_from_string(R"({"disc": {"window_frames": 2}})").disc.window_frames, 2);
 }
 
 TEST(TrainConfig, ErrorsNameTheFieldAndFile) {
@@ -135,6 +148,8 @@ TEST(TrainConfig, ErrorsNameTheFieldAndFile) {
   EXPECT_EQ(error_field(R"({"ppo": {"adaptive_lr": {"min_lr": 1e-3, "max_lr": 1e-4}}})"), "ppo.adaptive_lr.max_lr");
   EXPECT_EQ(error_field(R"({"net": {"action_offset": "median"}})"), "net.action_offset");
   EXPECT_EQ(error_field(R"({"net": {"action_scale_rad": [1.0, -1.0]}})"), "net.action_scale_rad");
+  EXPECT_EQ(error_field(R"({"disc": {"window_frames": 0}})"), "disc.window_frames");
+  EXPECT_EQ(error_field(R"({"disc": {"window_frames": 6}})"), "disc.window_frames");
   EXPECT_EQ(error_field(R"({"ppo": {"horizon": 32}})"), "");  // valid: nothing thrown
 }
 

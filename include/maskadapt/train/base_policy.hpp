@@ -50,7 +50,7 @@ struct PolicyDims {
   Index obs_dim = 0;           ///< full observation s
   Index policy_input_dim = 0;  ///< [s̄ ; m] = obs_dim + 5
   Index action_dim = 0;        ///< PD targets (num_dofs)
-  Index amp_dim = 0;           ///< discriminator window (5 · obs_dim)
+  Index amp_dim = 0;           ///< discriminator input (disc.window_frames · obs_dim; load_base_policy takes it from the config)
 };
 
 /// Networks of a base policy, and how its actions become PD targets.
@@ -110,6 +110,10 @@ inline void resolve_action_space(BaseTrainConfig& c, const Skeleton& skel, const
       c.net.action_scale_rad[static_cast<std::size_t>(k)] = std::max(0.05, 0.5 * (limit(k, true) - limit(k, false)));
   }
 }
+
+/// The discriminator's input dimension under `c`: its disc.window_frames frames of `obs_dim`
+/// features (5 frames: the whole AMP window of the task).
+inline Index disc_input_dim(const BaseTrainConfig& c, Index obs_dim) { return obs_dim * c.disc.window_frames; }
 
 /// The discriminator configuration implied by a trainer config.
 inline rl::DiscriminatorConfig discriminator_config(const BaseTrainConfig& c, Index amp_dim) {
@@ -229,8 +233,10 @@ inline LoadedBasePolicy load_base_policy(const Checkpoint& c, const PolicyDims& 
   out.policy_only = c.contains("model/kind");  // an export, or something claiming a model kind: checked next
   if (out.policy_only) (void)check_policy_export(c, ModelDims{dims.obs_dim, dims.policy_input_dim, dims.action_dim}, file);
   out.config = config_from_string(c.get_string("config"), file + " (config)");
+  PolicyDims sized = dims;  // the discriminator's input is the config's (its disc.window_frames)
+  sized.amp_dim = disc_input_dim(out.config, dims.obs_dim);
   Rng init(0);
-  out.policy = make_base_policy(out.config, dims, init);
+  out.policy = make_base_policy(out.config, sized, init);
   if (out.policy_only) load_actor(c, out.policy);
   else load_policy(c, out.policy);
   if (c.contains("trainer/iteration")) out.iteration = c.get_int("trainer/iteration");

@@ -72,8 +72,9 @@ namespace maskadapt::train {
 
 using RowVectorXf = RowVectorX<float>;
 
-/// Fills `out` (amp_dim × B, already sized) with B real discriminator windows drawn with `rng`
-/// (motion-library windows of 5 frames of unmasked features, same layout as the task's).
+/// Fills `out` (F·obs_dim × B, already sized) with B real discriminator windows drawn with `rng`
+/// (motion-library windows of F frames of unmasked features, oldest first, the layout of the
+/// last F frames of the task's window; F = disc.window_frames = out.rows() / obs_dim).
 using RealWindowSampler = std::function<void(Rng& rng, Eigen::Ref<MatrixXf> out)>;
 
 /// The task configuration implied by a trainer config.
@@ -138,7 +139,7 @@ class BaseTrainer {
     spec.action_dim = task_.action_dim();
     spec.amp_dim = task_.amp_dim();
     buf_.resize(spec);
-    replay_ = rl::ReplayBuffer<float>(task_.amp_dim(), cfg_.disc.replay_size);
+    replay_ = rl::ReplayBuffer<float>(disc_dim(), cfg_.disc.replay_size);
     comm_ = comm ? comm : &single_process();
     if (distributed()) join_ranks();
   }
@@ -146,6 +147,8 @@ class BaseTrainer {
   const BaseTrainConfig& config() const { return cfg_; }
   tasks::ImitationTask<Sim>& task() { return task_; }
   const BasePolicy& policy() const { return policy_; }
+  /// The last iteration's rollout (this rank's envs; tests and benchmarks read it).
+  const rl::RolloutBuffer<float>& rollout() const { return buf_; }
   long long iteration() const { return iteration_; }
   long long samples() const { return samples_; }
   /// The ranks this trainer runs with (SingleProcess unless a Collective was given).
@@ -153,10 +156,13 @@ class BaseTrainer {
   bool distributed() const { return comm_->size() > 1; }
   /// Index of this rank's first env among all ranks' envs (0 in one process).
   Index env_offset() const { return env_offset_; }
-  /// Network dimensions of this trainer's task.
+  /// Network dimensions of this trainer's task (amp_dim: the discriminator's input, disc_dim()).
   PolicyDims dims() const {
-    return {task_.obs_dim(), task_.policy_input_dim(), task_.action_dim(), task_.amp_dim()};
+    return {task_.obs_dim(), task_.policy_input_dim(), task_.action_dim(), disc_dim()};
   }
+  /// The discriminator's input: the last disc.window_frames frames of the task's AMP window
+  /// (window_frames × obs_dim rows; 5 frames: the whole window).
+  Index disc_dim() const { return disc_input_dim(cfg_, task_.obs_dim()); }
 
   /// Runs one iteration (collection, rewards, GAE, PPO + MI, discriminator) and returns its stats.
   IterationStats iterate() {
@@ -189,8 +195,11 @@ class BaseTrainer {
     Stopwatch disc_rewards;
     compute_rewards(st);
     st.time_disc += disc_rewards.seconds();
+    st.extra["time_disc_reward"] = disc_rewards.seconds();
+    Stopwatch ppo;
     rl::compute_gae(buf_, rl::GaeParams{cfg_.ppo.gamma, cfg_.ppo.gae_lambda});
     update_policy(st);
+    st.extra["time_ppo"] = ppo.seconds();  // (GAE, PPO and the MI term)
     Stopwatch disc_update;
     update_discriminator(st);
     st.time_disc += disc_update.seconds();
@@ -274,10 +283,10 @@ class BaseTrainer {
     critic_opt_.set_step_count(c.get_int("critic/adam_steps"));
     policy_.disc.optimizer().set_step_count(c.get_int("disc/adam_steps"));
     if (c.contains("replay/storage"))
-      replay_.restore(c.get_matrix<float>("replay/storage", task_.amp_dim(), cfg_.disc.replay_size),
+      replay_.restore(c.get_matrix<float>("replay/storage", disc_dim(), cfg_.disc.replay_size),
                       c.get_int("replay/size"), c.get_int("replay/head"));
     else  // a compacted checkpoint (drop_replay_buffer): the buffer refills from the next iterations
-      replay_ = rl::ReplayBuffer<float>(task_.amp_dim(), cfg_.disc.replay_size);
+      replay_ = rl::ReplayBuffer<float>(disc_dim(), cfg_.disc.replay_size);
     if (c.contains("mi_target/params")) {  // (absent before masking started: the target starts at the policy then)
       mi_target_net_ = policy_.ac.actor.mean_net;
       c.copy_to<float>("mi_target/params", mi_target_net_.params());
@@ -353,11 +362,14 @@ class BaseTrainer {
     const MatrixXf& bootstrap_values() { return final_values(t.task_.observations()); }
   };
 
+  /// The rows of (task AMP windows × n) the discriminator sees: the last disc.window_frames frames.
+  auto disc_rows(const MatrixXf& windows) const { return windows.bottomRows(disc_dim()); }
+
   // ---- 2. discriminator rewards -----------------------------------------------------------
   void compute_rewards(IterationStats& st) {
     const MatrixXf no_cond;  // (empty: allocates nothing)
     auto r = buf_.rewards.row(0);  // (1 × N·H), includes reward_scale
-    policy_.disc.reward(buf_.amp_windows, no_cond, r, reward_ws_);
+    policy_.disc.reward(disc_rows(buf_.amp_windows), no_cond, r, reward_ws_);
     if (distributed())
       st.disc_reward = all_reduce_sum(*comm_, r.template cast<double>().sum()) / static_cast<double>(r.size() * comm_->size());
     else
@@ -517,16 +529,18 @@ class BaseTrainer {
     // the agent windows of all ranks (distributed: gathered, so that every rank draws the same
     // batches, keeps the same replay buffer and takes the same steps)
     if (distributed()) gather_step_major(*comm_, buf_.amp_windows, task_.num_envs(), global_amp_, "discriminator windows");
-    const MatrixXf& amp = distributed() ? global_amp_ : buf_.amp_windows;
-    const Index n = amp.cols(), B = cfg_.disc.batch_size, half = B / 2, D = task_.amp_dim();
+    const auto amp = disc_rows(distributed() ? global_amp_ : buf_.amp_windows);  // (D × n)
+    const Index n = amp.cols(), B = cfg_.disc.batch_size, half = B / 2, D = disc_dim();
     const Index steps = std::max<Index>(1, cfg_.disc.epochs * n / B);
     MatrixXf &real = disc_real_, &fake = disc_fake_, &rep = disc_replayed_;
     real.resize(D, B);
     fake.resize(D, B);
     const MatrixXf no_cond;  // (empty: allocates nothing)
-    double sum_real = 0, sum_fake = 0, sum_loss = 0, sum_gp = 0;
+    double sum_real = 0, sum_fake = 0, sum_loss = 0, sum_gp = 0, real_seconds = 0;
     for (Index s = 0; s < steps; ++s) {
+      Stopwatch real_windows;
       real_(rng_, real);
+      real_seconds += real_windows.seconds();
       // the draws in order, then the column copies (on the pool)
       const Index fresh = replay_.empty() ? B : B - half;
       fake_picked_.resize(static_cast<std::size_t>(fresh));
@@ -550,6 +564,7 @@ class BaseTrainer {
       sum_gp += ds.grad_penalty;
     }
     replay_.push(amp);
+    st.extra["time_disc_real_windows"] = real_seconds;  // (part of time_disc: drawing the real windows)
     st.disc_real = sum_real / static_cast<double>(steps);
     st.disc_fake = sum_fake / static_cast<double>(steps);
     st.disc_loss = sum_loss / static_cast<double>(steps);

@@ -28,6 +28,7 @@
 /// docs/training.md explains every field and why the cpu preset has its value.
 #include <maskadapt/core/error.hpp>
 #include <maskadapt/core/types.hpp>
+#include <maskadapt/motion/amp_window.hpp>
 #include <maskadapt/rl/adaptive_lr.hpp>
 #include <maskadapt/sim/mujoco/character_names.hpp>
 #include <maskadapt/train/json_fields.hpp>
@@ -168,6 +169,11 @@ struct DiscConfig {
   int epochs = 1;                 ///< discriminator steps per iteration = epochs·samples/batch
   bool lsgan = false;             ///< least-squares form of the original AMP paper
   double reward_scale = 1.0;      ///< multiplies r = −log(max(1−D, 1e−4))
+  /// Frames of the task's AMP window the discriminator sees: the last `window_frames` of the
+  /// kAmpWindowFrames (5) kept, 1 ≤ window_frames ≤ 5. The paper's D(s, s′) is 2; every run
+  /// before this field existed saw 5, and a config without the field means 5 (not the preset's).
+  /// Its input is window_frames × obs_dim (5: 1,640 for the humanoid; 2: 656).
+  int window_frames = kAmpWindowFrames;
 };
 
 struct BaseTrainConfig {
@@ -264,6 +270,8 @@ struct BaseTrainConfig {
     check(disc.replay_size >= 1, "disc.replay_size", "must be ≥ 1");
     check(disc.batch_size >= 2, "disc.batch_size", "must be ≥ 2");
     check(disc.epochs >= 1, "disc.epochs", "must be ≥ 1");
+    check(disc.window_frames >= 1 && disc.window_frames <= kAmpWindowFrames, "disc.window_frames",
+          "must be 1 to " + std::to_string(kAmpWindowFrames) + " (frames of the AMP window the discriminator sees)");
   }
 };
 
@@ -360,7 +368,8 @@ inline nlohmann::json to_json(const BaseTrainConfig& c) {
                {"batch_size", c.disc.batch_size},
                {"epochs", c.disc.epochs},
                {"lsgan", c.disc.lsgan},
-               {"reward_scale", c.disc.reward_scale}};
+               {"reward_scale", c.disc.reward_scale},
+               {"window_frames", c.disc.window_frames}};
   return j;
 }
 
@@ -466,6 +475,9 @@ inline BaseTrainConfig config_from_json(const nlohmann::json& j, const std::stri
     r.get("epochs", c.disc.epochs);
     r.get("lsgan", c.disc.lsgan);
     r.get("reward_scale", c.disc.reward_scale);
+    // absent: 5, the window of every config and checkpoint written before the field existed
+    c.disc.window_frames = kAmpWindowFrames;
+    r.get("window_frames", c.disc.window_frames);
     r.finish();
   }
   top.finish();

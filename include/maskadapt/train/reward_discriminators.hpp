@@ -3,7 +3,9 @@
 /// The discriminator objectives of a stage-2 run (train/residual_trainer.hpp): one
 /// rl::Discriminator per `DiscriminatorSource`, each seeing some rows of the 5-frame window
 /// (all, or one part group's) and optionally the 5 mask bits (D(·|m), the mask-conditioned
-/// discriminator of ours). Each gives one reward row −log(max(1 − D_k, 1e−4)).
+/// discriminator of ours). Each gives one reward row −log(max(1 − D_k, 1e−4)). With
+/// `rl.disc.window_frames` F < 5 every member sees only the rows of the window's last F frames
+/// (F = 2: the paper's D(s, s′|m)).
 ///
 /// Discriminator steps (`update`): per member, disc.epochs · n / B steps of B samples: real
 /// samples from its source (part-wise blends for ours), fake = fresh agent windows with their
@@ -49,6 +51,7 @@ class RewardDiscriminators {
   RewardDiscriminators(std::vector<DiscriminatorSource> sources, Index window_dim, const BaseTrainConfig& rl,
                        nn::Activation activation, double negative_fraction, Rng& init)
       : sources_(std::move(sources)), disc_(rl.disc), negative_fraction_(negative_fraction) {
+    keep_last_frames(rl.disc.window_frames, window_dim);
     for (const auto& src : sources_) {
       require(static_cast<bool>(src.real), "discriminator '" + src.name + "' has no real sampler", {{}, {}, "setup"});
       rl::DiscriminatorConfig dc = discriminator_config(rl, src.rows.empty() ? window_dim : static_cast<Index>(src.rows.size()));
@@ -197,6 +200,22 @@ class RewardDiscriminators {
   }
 
  private:
+  /// With F = window_frames < 5, each source's rows become those of the last F frames (a source
+  /// that saw the whole window: rows [(5 − F)·d, 5·d)); sources keep their order.
+  void keep_last_frames(int frames, Index window_dim) {
+    require(frames >= 1 && frames <= kAmpWindowFrames && window_dim % kAmpWindowFrames == 0,
+            "window_frames must be 1 to 5 of a 5-frame window", {{}, {}, "disc.window_frames"});
+    if (frames == kAmpWindowFrames) return;
+    const Index first = (kAmpWindowFrames - frames) * (window_dim / kAmpWindowFrames);
+    for (auto& src : sources_) {
+      if (src.rows.empty())
+        for (Index r = first; r < window_dim; ++r) src.rows.push_back(r);
+      else
+        std::erase_if(src.rows, [first](Index r) { return r < first; });
+      require(!src.rows.empty(), "discriminator '" + src.name + "' sees no row of the last frames", {{}, {}, "disc.window_frames"});
+    }
+  }
+
   /// Member k's input: its rows of the windows, and the mask bits if it is conditioned.
   void member_inputs(std::size_t k, const Eigen::Ref<const MatrixXf>& windows, const std::vector<PartMask>& masks,
                      MatrixXf& feat, MatrixXf& cond) const {
