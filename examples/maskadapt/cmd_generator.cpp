@@ -18,6 +18,7 @@
 
 #include <maskadapt/core/checkpoint.hpp>
 #include <maskadapt/train/base_policy.hpp>
+#include <maskadapt/train/base_walks.hpp>
 #include <maskadapt/train/config.hpp>
 #include <maskadapt/train/motion_sources.hpp>
 #include <maskadapt/train/play.hpp>
@@ -76,25 +77,13 @@ std::vector<MotionClip> base_rollout_walks(const std::string& checkpoint, const 
                         sim.skeleton().num_dofs(), observation_dim(sim.skeleton()) * kAmpWindowFrames};
   const LoadedBasePolicy loaded = load_base_policy(ck, dims, checkpoint);
   auto lib = load_motion_library(loaded.config.env.motions, data_dir, character);
-  std::vector<MotionClip> out;
-  for (const std::uint64_t seed : seeds) {
-    PlayOptions opt;
-    opt.seconds = seconds;
-    opt.seed = seed;
-    PlayResult r = play_base_policy(sim, loaded.policy, library_reset_sampler(lib), opt, eval::make_rollout(sim.character()),
-                                    character.fall_criteria(loaded.config.env.termination_height),
-                                    loaded.config.env.termination_height);
-    require(r.fall_times.empty(), "the base fell in its rollout of seed " + std::to_string(seed) + " at " +
-                                      (r.fall_times.empty() ? std::string() : std::to_string(r.fall_times.front())) + " s",
-            {checkpoint, std::nullopt, flag});
-    require(std::abs(r.clip.fps - 30.0) < 1e-3, "the generator needs 30 Hz walks; the base runs at " + std::to_string(r.clip.fps) + " Hz",
-            {checkpoint, std::nullopt, flag});
-    r.clip.fps = 30.0;  // 1 / control_dt, rounded
-    r.clip.name = "base_rollout_seed" + std::to_string(seed);
-    r.clip.labels = {"walk forward", "walk"};
-    out.push_back(std::move(r.clip));
+  try {
+    return base_policy_walks(sim, loaded.policy, library_reset_sampler(lib),
+                             character.fall_criteria(loaded.config.env.termination_height),
+                             loaded.config.env.termination_height, seeds, seconds);
+  } catch (const Error& e) {
+    throw Error(e.message(), {checkpoint, std::nullopt, flag});
   }
-  return out;
 #endif
 }
 
@@ -124,6 +113,7 @@ struct TrainOptions {
   unsigned long long seed = 1;
   int stride = 2;
   std::string walks = "bandai";  ///< the walks the arms are blended onto: bandai, or all (issue 42)
+  bool standing_arm_clips = true;  ///< the catalog's clips as recorded join the corpus
   std::string base_walks;        ///< a base policy whose simulated walks join them ("" : none)
   long long base_walk_count = 8;
   double base_walk_seconds = 10.0;
@@ -194,7 +184,7 @@ void run_train(const TrainOptions& o) {
       more.push_back({"base rollouts", base_rollout_walks(o.base_walks, seeds, o.base_walk_seconds, root, "--base-walks")});
     }
     for (const auto& grp : more) std::cout << "walk group '" << grp.name << "': " << grp.clips.size() << " clip(s)\n";
-    corpus = load_generator_corpus(root, skel, data_rng, ao, more);
+    corpus = load_generator_corpus(root, skel, data_rng, ao, more, o.standing_arm_clips);
     if (corpus.arms.classes.size() <= 1)
       std::cerr << "no arm clips under " << root << "/motions (set --data or MASKADAPT_DATA_DIR): the arms pool is "
                 << "the synthetic arm circles only\n";
@@ -278,6 +268,7 @@ void run_train(const TrainOptions& o) {
                     {"seed", o.seed},
                     {"data_mix", o.mix},
                     {"walks", o.walks},
+                    {"standing_arm_clips", o.standing_arm_clips},
                     {"base_walks", o.base_walks},
                     {"base_walk_count", o.base_walks.empty() ? 0 : o.base_walk_count},
                     {"base_walk_seconds", o.base_walk_seconds},
@@ -713,6 +704,8 @@ const bool registered = maskadapt::cli::register_command([](CLI::App& app) {
   train->add_option("--walks", topt->walks,
                     "walks the arms are blended onto: bandai (the Bandai straight walks; default) or all (also the CMU walks, the styles walks and the synthetic walk, each source equally likely; issue 42)")
       ->check(maskadapt::cli::one_of({"bandai", "all"}));
+  train->add_flag("--standing-arm-clips,!--no-standing-arm-clips", topt->standing_arm_clips,
+                  "whether the arm catalog's clips as recorded (standing) join the corpus besides the blends (default: yes; issue 42: --no-standing-arm-clips)");
   train->add_option("--base-walks", topt->base_walks,
                     "a base policy (e.g. models/mask_mi_walk_bandai.bin) whose simulated walks join the walks the arms are blended onto, as one more source (rollout seeds 101+)");
   train->add_option("--base-walk-count", topt->base_walk_count, "rollouts of --base-walks (default 8)")->transform(integer_in(1, 1000));

@@ -294,9 +294,14 @@ inline std::vector<WalkGroup> other_walk_groups(const std::string& data_dir, std
 /// walk of a blend with equal probability (a clip uniformly within its group; this replaces
 /// `arm_switch.walk_weights`), and the groups' clips join the corpus as plain walks (the synthetic
 /// walk is there already).
+///
+/// `standing_arm_clips` = false leaves the catalog's clips as recorded (standing, mostly) out of
+/// the corpus: their arm motions then come only through the arm-switch blends, on walks (issue 42:
+/// as recorded they teach a prompt such as "swim" to stop walking).
 inline GeneratorCorpus load_generator_corpus(const std::string& data_dir, const Skeleton& skel, Rng& rng,
                                              const ArmSwitchOptions& arm_switch = {},
-                                             const std::vector<WalkGroup>& more_walks = {}) {
+                                             const std::vector<WalkGroup>& more_walks = {},
+                                             bool standing_arm_clips = true) {
   namespace fs = std::filesystem;
   GeneratorCorpus g;
   const fs::path cmu = fs::path(data_dir) / "motions" / "cmu";
@@ -304,9 +309,10 @@ inline GeneratorCorpus load_generator_corpus(const std::string& data_dir, const 
     for (auto& c : load_labelled_clips(cmu.string(), skel, &g.skipped))
       if (!in_arm_catalog(c.name)) g.clips.push_back(std::move(c));
   g.arms = load_arm_data(data_dir);
-  for (const auto& cls : g.arms.clips)
-    for (const auto& c : cls)
-      if (c.name.rfind("synthetic_", 0) != 0) g.clips.push_back(labelled_from_clip(c, skel));
+  if (standing_arm_clips)
+    for (const auto& cls : g.arms.clips)
+      for (const auto& c : cls)
+        if (c.name.rfind("synthetic_", 0) != 0) g.clips.push_back(labelled_from_clip(c, skel));
   if (const MotionSetSpec* spec = find_motion_set("bandai-walk-straight");
       spec && !data_dir.empty() && fs::is_directory(fs::path(data_dir) / spec->folder)) {
     g.walks = load_motion_set(*spec, data_dir);
