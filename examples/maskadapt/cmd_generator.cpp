@@ -68,6 +68,7 @@ std::vector<MotionClip> base_rollout_walks(const std::string& checkpoint, const 
 #else
   using namespace maskadapt::train;
   require(std::filesystem::is_regular_file(checkpoint), "base policy not found", {checkpoint, std::nullopt, flag});
+  try {
   const Checkpoint ck = load_checkpoint(checkpoint);
   const MujocoCharacter& character = mujoco_character(checkpoint_character(ck, checkpoint), checkpoint + " (env.character)");
   require(character.name == "humanoid", "the generator's histories need a base policy of the humanoid (got " + character.name + ")",
@@ -77,12 +78,11 @@ std::vector<MotionClip> base_rollout_walks(const std::string& checkpoint, const 
                         sim.skeleton().num_dofs(), observation_dim(sim.skeleton()) * kAmpWindowFrames};
   const LoadedBasePolicy loaded = load_base_policy(ck, dims, checkpoint);
   auto lib = load_motion_library(loaded.config.env.motions, data_dir, character);
-  try {
-    return base_policy_walks(sim, loaded.policy, library_reset_sampler(lib),
-                             character.fall_criteria(loaded.config.env.termination_height),
-                             loaded.config.env.termination_height, seeds, seconds);
-  } catch (const Error& e) {
-    throw Error(e.message(), {checkpoint, std::nullopt, flag});
+  return base_policy_walks(sim, loaded.policy, library_reset_sampler(lib),
+                           character.fall_criteria(loaded.config.env.termination_height),
+                           loaded.config.env.termination_height, seeds, seconds);
+  } catch (const Error& e) {  // name the flag: a generator or a stage-2 file given as the base, a fall
+    throw Error(std::string(e.what()) + " (is it a stage-1 base policy?)", {checkpoint, std::nullopt, flag});
   }
 #endif
 }
