@@ -69,18 +69,18 @@ std::vector<MotionClip> base_rollout_walks(const std::string& checkpoint, const 
   using namespace maskadapt::train;
   require(std::filesystem::is_regular_file(checkpoint), "base policy not found", {checkpoint, std::nullopt, flag});
   try {
-  const Checkpoint ck = load_checkpoint(checkpoint);
-  const MujocoCharacter& character = mujoco_character(checkpoint_character(ck, checkpoint), checkpoint + " (env.character)");
-  require(character.name == "humanoid", "the generator's histories need a base policy of the humanoid (got " + character.name + ")",
-          {checkpoint, std::nullopt, flag});
-  MujocoHumanoidSim sim(1, 1, character);
-  const PolicyDims dims{observation_dim(sim.skeleton()), observation_dim(sim.skeleton()) + kNumParts,
-                        sim.skeleton().num_dofs(), observation_dim(sim.skeleton()) * kAmpWindowFrames};
-  const LoadedBasePolicy loaded = load_base_policy(ck, dims, checkpoint);
-  auto lib = load_motion_library(loaded.config.env.motions, data_dir, character);
-  return base_policy_walks(sim, loaded.policy, library_reset_sampler(lib),
-                           character.fall_criteria(loaded.config.env.termination_height),
-                           loaded.config.env.termination_height, seeds, seconds);
+    const Checkpoint ck = load_checkpoint(checkpoint);
+    const MujocoCharacter& character = mujoco_character(checkpoint_character(ck, checkpoint), checkpoint + " (env.character)");
+    require(character.name == "humanoid", "the generator's histories need a base policy of the humanoid (got " + character.name + ")",
+            {checkpoint, std::nullopt, flag});
+    MujocoHumanoidSim sim(1, 1, character);
+    const PolicyDims dims{observation_dim(sim.skeleton()), observation_dim(sim.skeleton()) + kNumParts,
+                          sim.skeleton().num_dofs(), observation_dim(sim.skeleton()) * kAmpWindowFrames};
+    const LoadedBasePolicy loaded = load_base_policy(ck, dims, checkpoint);
+    auto lib = load_motion_library(loaded.config.env.motions, data_dir, character);
+    return base_policy_walks(sim, loaded.policy, library_reset_sampler(lib),
+                             character.fall_criteria(loaded.config.env.termination_height),
+                             loaded.config.env.termination_height, seeds, seconds);
   } catch (const Error& e) {  // name the flag: a generator or a stage-2 file given as the base, a fall
     throw Error(std::string(e.what()) + " (is it a stage-1 base policy?)", {checkpoint, std::nullopt, flag});
   }
