@@ -16,6 +16,16 @@
 #include <maskadapt/tracking/prompt_words.hpp>
 #include <maskadapt/tracking/text_pool.hpp>
 
+#include <maskadapt/core/checkpoint.hpp>
+#include <maskadapt/train/base_policy.hpp>
+#include <maskadapt/train/base_walks.hpp>
+#include <maskadapt/train/config.hpp>
+#include <maskadapt/train/motion_sources.hpp>
+#include <maskadapt/train/play.hpp>
+#ifdef MASKADAPT_HAS_MUJOCO
+#include <maskadapt/sim/mujoco/humanoid_sim.hpp>
+#endif
+
 #include <algorithm>
 #include <cstdlib>
 #include <filesystem>
@@ -42,6 +52,41 @@ std::string data_root(const std::string& flag) {
 /// The shipped generator (models/README.md "text_generator.bin").
 std::string shipped_generator() { return maskadapt::cli::source_dir() + "/models/text_generator.bin"; }
 
+/// The shipped mask-invariant base (models/README.md "mask_mi_walk_bandai.bin").
+std::string shipped_base() { return maskadapt::cli::source_dir() + "/models/mask_mi_walk_bandai.bin"; }
+
+/// Walks of a base policy under the simulator — what partial tracking's generator is given when it
+/// continues the simulated character: one rollout per seed of `seconds` (30 Hz, no mask, sampled
+/// actions, RSI from the policy's own motion set; train::play_base_policy), labelled "walk forward",
+/// "walk". A rollout in which the humanoid falls is refused naming the seed (`flag` names the
+/// option that asked for it).
+std::vector<MotionClip> base_rollout_walks(const std::string& checkpoint, const std::vector<std::uint64_t>& seeds,
+                                           double seconds, const std::string& data_dir, const std::string& flag) {
+#ifndef MASKADAPT_HAS_MUJOCO
+  (void)checkpoint, (void)seeds, (void)seconds, (void)data_dir;
+  throw Error("this build has no MuJoCo: rollouts of a base policy need the maskadapt::mujoco target", {{}, {}, flag});
+#else
+  using namespace maskadapt::train;
+  require(std::filesystem::is_regular_file(checkpoint), "base policy not found", {checkpoint, std::nullopt, flag});
+  try {
+    const Checkpoint ck = load_checkpoint(checkpoint);
+    const MujocoCharacter& character = mujoco_character(checkpoint_character(ck, checkpoint), checkpoint + " (env.character)");
+    require(character.name == "humanoid", "the generator's histories need a base policy of the humanoid (got " + character.name + ")",
+            {checkpoint, std::nullopt, flag});
+    MujocoHumanoidSim sim(1, 1, character);
+    const PolicyDims dims{observation_dim(sim.skeleton()), observation_dim(sim.skeleton()) + kNumParts,
+                          sim.skeleton().num_dofs(), observation_dim(sim.skeleton()) * kAmpWindowFrames};
+    const LoadedBasePolicy loaded = load_base_policy(ck, dims, checkpoint);
+    auto lib = load_motion_library(loaded.config.env.motions, data_dir, character);
+    return base_policy_walks(sim, loaded.policy, library_reset_sampler(lib),
+                             character.fall_criteria(loaded.config.env.termination_height),
+                             loaded.config.env.termination_height, seeds, seconds);
+  } catch (const Error& e) {  // name the flag: a generator or a stage-2 file given as the base, a fall
+    throw Error(std::string(e.what()) + " (is it a stage-1 base policy?)", {checkpoint, std::nullopt, flag});
+  }
+#endif
+}
+
 std::string machine_line() {
   std::ifstream f("/proc/cpuinfo");
   std::string line;
@@ -67,6 +112,11 @@ struct TrainOptions {
   long long batch = 64;
   unsigned long long seed = 1;
   int stride = 2;
+  std::string walks = "bandai";  ///< the walks the arms are blended onto: bandai, or all (issue 42)
+  bool standing_arm_clips = true;  ///< the catalog's clips as recorded join the corpus
+  std::string base_walks;        ///< a base policy whose simulated walks join them ("" : none)
+  long long base_walk_count = 8;
+  double base_walk_seconds = 10.0;
 };
 
 struct GenerateOptions {
@@ -100,6 +150,8 @@ TrainingLabels install_prompt_mapper(BuiltinGenerator& g, const std::string& dat
 
 struct EvalOptions {
   std::string checkpoint, data, out, save, probe;  ///< probe empty: the library default (ArmProbeConfig{})
+  bool per_source = false;  ///< issue 42: accuracy and arm/pelvis/speed figures per walking-history source
+  std::string base;         ///< the base whose simulated walks are one source (default: the shipped base; "none": left out)
   std::vector<std::string> prompts, paraphrases;
   long long samples = 10;
   unsigned long long seed = 1;
@@ -120,7 +172,19 @@ void run_train(const TrainOptions& o) {
   } else {
     ArmSwitchOptions ao;
     ao.active_seconds_per_class = o.arm_seconds;
-    corpus = load_generator_corpus(root, skel, data_rng, ao);
+    std::vector<WalkGroup> more;
+    if (o.walks == "all") {
+      std::vector<std::string> missing;
+      more = other_walk_groups(root, &missing);
+      for (const auto& m : missing) std::cerr << "--walks all: " << m << " not found, left out\n";
+    }
+    if (!o.base_walks.empty()) {  // rollout seeds 101+: eval-generator --per-source uses seeds 1 and 2
+      std::vector<std::uint64_t> seeds;
+      for (long long k = 0; k < o.base_walk_count; ++k) seeds.push_back(101 + static_cast<std::uint64_t>(k));
+      more.push_back({"base rollouts", base_rollout_walks(o.base_walks, seeds, o.base_walk_seconds, root, "--base-walks")});
+    }
+    for (const auto& grp : more) std::cout << "walk group '" << grp.name << "': " << grp.clips.size() << " clip(s)\n";
+    corpus = load_generator_corpus(root, skel, data_rng, ao, more, o.standing_arm_clips);
     if (corpus.arms.classes.size() <= 1)
       std::cerr << "no arm clips under " << root << "/motions (set --data or MASKADAPT_DATA_DIR): the arms pool is "
                 << "the synthetic arm circles only\n";
@@ -162,17 +226,36 @@ void run_train(const TrainOptions& o) {
   // eval-generator reports afterwards was not the one maximised.
   GeneratorScore score;
   std::unique_ptr<GeneratorEvalSet> select_set;
+  std::vector<std::vector<Trajectory>> select_histories;  // per source, world frame, H frames each
   if (o.select_every > 0) {
     Rng select_rng(777);
     select_set = std::make_unique<GeneratorEvalSet>(make_generator_eval_set(root, skel, select_rng));
+    if (o.walks == "all" || !o.base_walks.empty()) {
+      // issue 42: every source the blends used, at other times than eval-generator's (1.5 s and 2.5 s)
+      if (o.walks == "all")
+        for (const auto& src : walking_history_sources(root, skel, 5, nullptr, {45, 75})) select_histories.push_back(src.histories);
+      else
+        select_histories.push_back(select_set->histories);
+      if (!o.base_walks.empty()) {  // rollout seeds 201, 202
+        std::vector<LabelledTrajectory> l;
+        for (const auto& w : base_rollout_walks(o.base_walks, {201, 202}, 4.0, root, "--base-walks")) l.push_back(labelled_from_clip(w, skel));
+        select_histories.push_back(walking_history_source("base rollouts", skel, l, {45, 75}).histories);
+      }
+    } else {
+      select_histories.push_back(select_set->histories);
+    }
     score = [&, samples = o.select_samples, seed = o.select_seed](const BuiltinGenerator& gen) {
       PromptEvalOptions po;
       po.samples = samples;
       po.seed = seed;
-      return evaluate_prompts(gen, select_set->prompts, select_set->histories, select_set->classifier, po).overall_accuracy();
+      double acc = 0;  // the mean over the sources
+      for (const auto& h : select_histories)
+        acc += evaluate_prompts(gen, select_set->prompts, h, select_set->classifier, po).overall_accuracy();
+      return acc / static_cast<double>(select_histories.size());
     };
     std::cout << "selection: every " << o.select_every << " diffusion iterations, arm-following accuracy of "
-              << o.select_samples << " samples per prompt (seeds " << o.select_seed << "+, classifier of draw 777)\n";
+              << o.select_samples << " samples per prompt (seeds " << o.select_seed << "+, classifier of draw 777), mean over "
+              << select_histories.size() << " history source(s)\n";
   }
   const auto rep = train_generator(g, data, tc, rng, [](const std::string& s) { std::cout << s << std::endl; }, score);
   nlohmann::json snapshots = nlohmann::json::array();
@@ -184,6 +267,11 @@ void run_train(const TrainOptions& o) {
                     {"machine", machine_line()},
                     {"seed", o.seed},
                     {"data_mix", o.mix},
+                    {"walks", o.walks},
+                    {"standing_arm_clips", o.standing_arm_clips},
+                    {"base_walks", o.base_walks},
+                    {"base_walk_count", o.base_walks.empty() ? 0 : o.base_walk_count},
+                    {"base_walk_seconds", o.base_walk_seconds},
                     {"transition_fraction", o.transition_fraction},
                     {"data_dir", root},
                     {"clips", corpus.clips.size()},
@@ -392,6 +480,106 @@ void print_report(const ArmFollowingReport& r, const std::string& title) {
   std::cout.unsetf(std::ios::floatfield);
 }
 
+std::string fmt(double v, int precision = 2) {
+  if (!std::isfinite(v)) return "—";
+  std::ostringstream o;
+  o << std::fixed << std::setprecision(precision) << v;
+  return o.str();
+}
+
+nlohmann::json stats_json(const ArmWindowStats& w) {
+  return {{"wrist_max_m", w.wrist_max}, {"wrist_range_m", w.wrist_range}, {"wrist_freq_hz", w.wrist_freq},
+          {"right_over_head_m", w.right_over_head}, {"left_over_head_m", w.left_over_head},
+          {"pelvis_height_m", w.pelvis_height}, {"speed_mps", w.speed}};
+}
+
+/// Per prompt: median wrist height above the pelvis (max over the span), median range, median
+/// frequency, and the shares of samples with the right / left wrist above the head.
+void print_arm_stats(const std::vector<std::string>& prompts, const std::vector<std::vector<ArmWindowStats>>& per_prompt,
+                     const std::vector<double>* accuracy, const std::string& title) {
+  std::cout << title << "\n| prompt |" << (accuracy ? " accuracy |" : "")
+            << " wrist max above pelvis, median (m) | ≥ 0.6 m | range (m) | frequency (Hz) | R wrist above head | L wrist above head | pelvis (m) | speed (m/s) |\n| --- |"
+            << (accuracy ? " --- |" : "") << " --- | --- | --- | --- | --- | --- | --- | --- |\n";
+  for (std::size_t p = 0; p < prompts.size(); ++p) {
+    const auto& v = per_prompt[p];
+    std::vector<double> mx, rg, fq, pv, sp;
+    int high = 0, rh = 0, lh = 0;
+    for (const auto& w : v) {
+      mx.push_back(w.wrist_max), rg.push_back(w.wrist_range), fq.push_back(w.wrist_freq);
+      pv.push_back(w.pelvis_height), sp.push_back(w.speed);
+      high += w.wrist_max >= 0.6, rh += w.right_over_head > 0, lh += w.left_over_head > 0;
+    }
+    const double n = std::max<std::size_t>(1, v.size());
+    std::cout << "| " << prompts[p] << " |" << (accuracy ? " " + fmt((*accuracy)[p]) + " |" : "") << " " << fmt(median_of(mx))
+              << " | " << fmt(high / n) << " | " << fmt(median_of(rg)) << " | " << fmt(median_of(fq), 1) << " | " << fmt(rh / n)
+              << " | " << fmt(lh / n) << " | " << fmt(median_of(pv)) << " | " << fmt(median_of(sp)) << " |\n";
+  }
+}
+
+/// Issue 42: the probe from every walking-history source (the shared data's walks, the synthetic
+/// walk, and the simulated walks of a base policy), with the arm, pelvis and speed figures beside
+/// the real clips'.
+nlohmann::json run_per_source(BuiltinGenerator& g, const GeneratorEvalSet& ev, const EvalOptions& o, const std::string& root) {
+  const Skeleton& skel = g.skeleton();
+  const Index H = g.history_frames();
+  std::vector<std::string> missing;
+  std::vector<WalkingHistorySource> sources = walking_history_sources(root, skel, H, &missing);
+  for (const auto& m : missing) std::cout << "per-source: " << m << " not found, its source left out\n";
+  std::string base = o.base.empty() ? shipped_base() : o.base;
+  if (base != "none") {
+    // seeds 1 and 2 (eval); train-generator --base-walks draws its rollouts from seeds 101+
+    const auto walks = base_rollout_walks(base, {1, 2}, 4.0, root, "--base");
+    std::vector<LabelledTrajectory> l;
+    for (const auto& w : walks) l.push_back(labelled_from_clip(w, skel));
+    sources.push_back(walking_history_source("base rollouts", skel, l, {60, 90}, H));
+    std::cout << "per-source: base rollouts of " << base << " (seeds 1, 2; 4 s; histories ending at 2 s and 3 s)\n";
+  }
+  PromptEvalOptions po;
+  po.samples = o.samples;
+  po.seed = o.seed;
+  nlohmann::json out = nlohmann::json::array();
+  std::vector<SourceSummary> sums;
+  for (const auto& src : sources) {
+    std::vector<std::vector<ArmWindowStats>> stats;
+    const ArmFollowingReport r = evaluate_prompts(g, ev.prompts, src.histories, ev.classifier, po, &stats);
+    sums.push_back(summarise_source(src, r, stats));
+    std::string refs;
+    for (const auto& w : src.reference) refs += " pelvis " + fmt(w.pelvis_height) + " m, speed " + fmt(w.speed) + " m/s;";
+    print_arm_stats(ev.prompts, stats, &r.accuracy, "## per source: " + src.name + " (history references:" + refs + ")");
+    nlohmann::json sj = {{"source", src.name}, {"report", r.to_json()}};
+    for (const auto& w : src.reference) sj["reference"].push_back(stats_json(w));
+    for (const auto& pp : stats) {
+      nlohmann::json a = nlohmann::json::array();
+      for (const auto& w : pp) a.push_back(stats_json(w));
+      sj["stats"].push_back(a);
+    }
+    out.push_back(sj);
+  }
+  std::vector<std::vector<ArmWindowStats>> held(ev.prompts.size()), raw(ev.prompts.size());
+  for (std::size_t j = 0; j < ev.heldout.stats.size(); ++j) held[static_cast<std::size_t>(ev.heldout.labels[j])].push_back(ev.heldout.stats[j]);
+  for (std::size_t j = 0; j < ev.raw.stats.size(); ++j) raw[static_cast<std::size_t>(ev.raw.labels[j])].push_back(ev.raw.stats[j]);
+  print_arm_stats(ev.prompts, held, nullptr, "## real: held-out walks with the labelled arm motion blended on (2-s windows)");
+  print_arm_stats(ev.prompts, raw, nullptr, "## real: the labelled arm clips as recorded (standing; 2-s windows)");
+  std::cout << "## per source (issue 42 bars: accuracy ≥ 0.85; arms high ≥ 0.6 m above the pelvis in ≥ 80 % of samples; each "
+               "wave's wrist(s) above the head; pelvis and speed within 10 % of the history's)\n"
+               "| source | accuracy | arms high ≥ 0.6 m (median max, m) | wave R / L / both above head | pelvis ratio (farthest prompt) | speed ratio (farthest prompt) | bars |\n"
+               "| --- | --- | --- | --- | --- | --- | --- |\n";
+  for (const auto& s : sums)
+    std::cout << "| " << s.source << " | " << fmt(s.accuracy, 3) << " | " << fmt(s.arms_high_share) << " (" << fmt(s.arms_high_median)
+              << ") | " << fmt(s.wave_share[0]) << " / " << fmt(s.wave_share[1]) << " / " << fmt(s.wave_share[2]) << " | "
+              << fmt(s.pelvis_ratio, 3) << " (" << s.pelvis_worst_prompt << " " << fmt(s.pelvis_worst, 3) << ") | "
+              << fmt(s.speed_ratio, 3) << " (" << s.speed_worst_prompt << " " << fmt(s.speed_worst, 3) << ") | "
+              << (s.meets_bars() ? "met" : "missed") << " |\n";
+  for (std::size_t k = 0; k < sums.size(); ++k)
+    out[k]["summary"] = {{"accuracy", sums[k].accuracy}, {"arms_high_share", sums[k].arms_high_share},
+                         {"arms_high_median_m", sums[k].arms_high_median},
+                         {"wave_share", {sums[k].wave_share[0], sums[k].wave_share[1], sums[k].wave_share[2]}},
+                         {"pelvis_ratio", sums[k].pelvis_ratio}, {"pelvis_worst", sums[k].pelvis_worst},
+                         {"speed_ratio", sums[k].speed_ratio}, {"speed_worst", sums[k].speed_worst},
+                         {"meets_bars", sums[k].meets_bars()}};
+  return out;
+}
+
 void run_eval(const EvalOptions& o) {
   const Skeleton& skel = humanoid_skeleton();
   const std::string path = o.checkpoint.empty() ? shipped_generator() : o.checkpoint;
@@ -433,6 +621,8 @@ void run_eval(const EvalOptions& o) {
     std::cout << " |\n";
     sj.push_back({{"delay_s", d}, {"report", r.to_json()}});
   }
+  nlohmann::json per_source_json;
+  if (o.per_source) per_source_json = run_per_source(g, ev, o, root);
   print_report(real_blend, "## real: walks with the labelled arm motion blended on (the classifier's training windows)");
   print_report(real_heldout, "## real: other walks with the labelled arm motion blended on (drawn after the training windows; not used to fit the classifier)");
   print_report(real_raw, "## real: the labelled arm clips as recorded (standing; not used to fit the classifier)");
@@ -460,6 +650,7 @@ void run_eval(const EvalOptions& o) {
     nlohmann::json j = {{"generator", path}, {"samples", o.samples}, {"seed", o.seed}, {"generated", gen.to_json()},
                         {"switches", sj}, {"probe", ev.classifier.config().name()}, {"real_blended", real_blend.to_json()},
                         {"real_heldout", real_heldout.to_json()}, {"real_raw", real_raw.to_json()}, {"paraphrases", pj},
+                        {"per_source", per_source_json},
                         {"provenance", g.provenance()}};
     std::ofstream(o.out) << j.dump(2) << "\n";
     std::cout << "wrote " << o.out << "\n";
@@ -510,6 +701,16 @@ const bool registered = maskadapt::cli::register_command([](CLI::App& app) {
       ->transform(integer_in(2, 10000));
   train->add_option("--select-seed", topt->select_seed, "first sample seed of the --select-every scores (default 1001; eval-generator uses 1+)")
       ->transform(non_negative_integer());
+  train->add_option("--walks", topt->walks,
+                    "walks the arms are blended onto: bandai (the Bandai straight walks; default) or all (also the CMU walks, the styles walks and the synthetic walk, each source equally likely; issue 42)")
+      ->check(maskadapt::cli::one_of({"bandai", "all"}));
+  train->add_flag("--standing-arm-clips,!--no-standing-arm-clips", topt->standing_arm_clips,
+                  "whether the arm catalog's clips as recorded (standing) join the corpus besides the blends (default: yes; issue 42: --no-standing-arm-clips)");
+  train->add_option("--base-walks", topt->base_walks,
+                    "a base policy (e.g. models/mask_mi_walk_bandai.bin) whose simulated walks join the walks the arms are blended onto, as one more source (rollout seeds 101+)");
+  train->add_option("--base-walk-count", topt->base_walk_count, "rollouts of --base-walks (default 8)")->transform(integer_in(1, 1000));
+  train->add_option("--base-walk-seconds", topt->base_walk_seconds, "seconds per rollout of --base-walks (default 10)")
+      ->check(real_in(1, 600));
   train->add_option("--seed", topt->seed, "random seed")->transform(non_negative_integer());
   train->add_option("--guidance", topt->guidance, "classifier-free guidance weight stored with the model (default 5)")
       ->check(non_negative_real());
@@ -561,6 +762,9 @@ const bool registered = maskadapt::cli::register_command([](CLI::App& app) {
   ev->add_option("--probe", eopt->probe, "the classifier: nearest-mean, lda[:SHRINKAGE] or knn[:K] (default: knn, 1-nearest neighbour)")
       ->check(parsed_by([](const std::string& t) { (void)parse_arm_probe(t); }, "PROBE"));
   ev->add_option("--paraphrases", eopt->paraphrases, "prompts to map onto the pool (default: a built-in list)");
+  ev->add_flag("--per-source", eopt->per_source,
+               "also the probe from every walking-history source (Bandai, CMU and styles walks, the synthetic walk, rollouts of --base) with wrist height, pelvis height and speed beside the real clips' (issue 42)");
+  ev->add_option("--base", eopt->base, "with --per-source: the base policy whose simulated walks are a history source (default: models/mask_mi_walk_bandai.bin; none: leave it out)");
   ev->add_option("--out", eopt->out, "write the figures as JSON");
   ev->add_option("--save", eopt->save, "write the checkpoint again with the evaluated --guidance/--temperature as its defaults");
   ev->callback([eopt] { run_eval(*eopt); });

@@ -241,3 +241,108 @@ TEST(ArmEval, ProbeNamesParseAndBadOnesAreRefusedNamingTheFlag) {
     }
   }
 }
+
+// Issue 42: the statistics the per-source bars read, on a trajectory whose heights and root path
+// are closed forms (body positions written directly: window_stats reads body_pos and root_pos).
+TEST(ArmEval, WindowStatsEqualTheirClosedForms) {
+  const Skeleton& skel = humanoid_skeleton();
+  const Index n = 61;  // 2 s at 30 Hz
+  Trajectory t = Trajectory::zeros(skel, n);
+  const int lw = skel.index_of("L_Wrist"), rw = skel.index_of("R_Wrist"), head = skel.index_of("Head");
+  const double v = 1.2, f = 1.0, a = 0.5, phase = 0.3;  // m/s, Hz, m, rad
+  for (Index i = 0; i < n; ++i) {
+    const double time = i / 30.0;
+    t.root_pos.col(i) = Vec3(v * time, 0.1, 0.95);
+    t.body_pos.block<3, 1>(0, i) = t.root_pos.col(i);
+    t.body_pos(3 * rw + 2, i) = 0.95 + a * std::sin(2 * M_PI * f * time + phase);  // swings ± a about the pelvis
+    t.body_pos(3 * lw + 2, i) = 0.95 - 0.1;                                         // hangs 0.1 m below it
+    t.body_pos(3 * head + 2, i) = 0.95 + 0.6;
+  }
+  const ArmWindowStats s = window_stats(skel, t, 0, n);
+  double hi = -1e9, lo = 1e9;
+  for (Index i = 0; i < n; ++i) {
+    hi = std::max(hi, a * std::sin(2 * M_PI * f * i / 30.0 + phase));
+    lo = std::min(lo, a * std::sin(2 * M_PI * f * i / 30.0 + phase));
+  }
+  EXPECT_NEAR(s.wrist_max, hi, 1e-12);  // the right wrist reaches higher than the left
+  EXPECT_NEAR(s.wrist_range, hi - lo, 1e-12);
+  EXPECT_NEAR(s.wrist_freq, f, 1e-12);  // 2 periods: 4 crossings of the mean in 2 s
+  EXPECT_NEAR(s.right_over_head, hi - 0.6, 1e-12);
+  EXPECT_NEAR(s.left_over_head, -0.7, 1e-12);
+  EXPECT_NEAR(s.pelvis_height, 0.95, 1e-12);
+  EXPECT_NEAR(s.speed, v, 1e-12);
+  EXPECT_THROW(window_stats(skel, t, 0, 1), Error);
+  EXPECT_THROW(window_stats(skel, t, 10, n), Error);
+}
+
+// A catalog span: frames [b, e] of the clip, and to and fro: b..e then e-1..b+1 (continuous when looped).
+TEST(ArmData, ClipSpanCutsAndPlaysToAndFro) {
+  MotionClip c = synthetic_walk();
+  const int n = c.num_frames();
+  ASSERT_GE(n, 20);
+  const MotionClip s = clip_span(c, 5 / 30.0, 12 / 30.0, false);
+  ASSERT_EQ(s.num_frames(), 8);
+  for (int i = 0; i < 8; ++i) EXPECT_EQ(s.q.col(i), c.q.col(5 + i));
+  const MotionClip p = clip_span(c, 5 / 30.0, 12 / 30.0, true);
+  ASSERT_EQ(p.num_frames(), 14);  // 8 forwards, 6 back (12 and 5 not repeated)
+  const int want[14] = {5, 6, 7, 8, 9, 10, 11, 12, 11, 10, 9, 8, 7, 6};
+  for (int i = 0; i < 14; ++i) {
+    EXPECT_EQ(p.q.col(i), c.q.col(want[i])) << i;
+    EXPECT_EQ(p.root_pos.col(i), c.root_pos.col(want[i])) << i;
+  }
+  EXPECT_EQ(clip_span(c, 0, INFINITY, false).q, c.q);
+  EXPECT_THROW(clip_span(c, 3.0 * n, INFINITY, false), Error);  // past the end: one frame left
+}
+
+// Weighted walks: a walk of weight 0 is never blended onto; the draw's frequencies follow the
+// weights; bad weights are refused naming the field.
+TEST(ArmData, WalkWeightsChooseTheWalks) {
+  Rng rng(5);
+  const std::vector<double> w = {0.0, 1.0, 3.0};
+  int count[3] = {0, 0, 0};
+  const int N = 20000;
+  for (int i = 0; i < N; ++i) ++count[draw_weighted(w, rng)];
+  EXPECT_EQ(count[0], 0);
+  EXPECT_NEAR(count[2] / double(N), 0.75, 4 * std::sqrt(0.75 * 0.25 / N));  // 4 standard errors
+  const Skeleton& skel = humanoid_skeleton();
+  const ArmData arms = load_arm_data("");
+  MotionClip a = synthetic_walk(), b = synthetic_walk();
+  a.name = "walk_a";
+  b.name = "walk_b";
+  ArmSwitchOptions o;
+  o.active_seconds_per_class = 10.0;
+  o.walk_weights = {0.0, 1.0};
+  Rng r(3);
+  for (const auto& c : make_arm_switch_clips({a, b}, arms, skel, r, o)) EXPECT_EQ(c.name.rfind("walk_b+", 0), 0u) << c.name;
+  o.walk_weights = {1.0};  // one weight for two walks
+  try {
+    (void)make_arm_switch_clips({a, b}, arms, skel, r, o);
+    ADD_FAILURE() << "expected an error";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("walk_weights"), std::string::npos) << e.what();
+  }
+  o.walk_weights = {0.0, 0.0};
+  EXPECT_THROW(make_arm_switch_clips({a, b}, arms, skel, r, o), Error);
+}
+
+// A history source: history k is the H frames of clip k mod K ending at ends[k] (clamped), and its
+// reference is the second ending there.
+TEST(ArmEval, HistorySourcesSliceTheirClips) {
+  const Skeleton& skel = humanoid_skeleton();
+  const LabelledTrajectory w = labelled_from_clip(synthetic_walk(), skel);
+  const Index n = w.motion.num_frames();
+  const WalkingHistorySource s = walking_history_source("w", skel, {w}, {20, 10 * n}, 5);
+  ASSERT_EQ(s.histories.size(), 2u);
+  EXPECT_EQ(s.histories[0].q, w.motion.slice(15, 5).q);
+  EXPECT_EQ(s.histories[1].q, w.motion.slice(n - 5, 5).q);  // clamped to the clip's end
+  const ArmWindowStats ref = window_stats(skel, w.motion, 0, 20);  // fewer than 30 frames before frame 20
+  EXPECT_DOUBLE_EQ(s.reference[0].speed, ref.speed);
+  EXPECT_DOUBLE_EQ(s.reference[0].pelvis_height, ref.pelvis_height);
+  EXPECT_THROW(walking_history_source("w", skel, {}, {20}, 5), Error);
+  // without data only the built-in walk remains, and the missing files are named
+  std::vector<std::string> missing;
+  const auto none = walking_history_sources("", skel, 5, &missing);
+  ASSERT_EQ(none.size(), 1u);
+  EXPECT_EQ(none[0].name, "synthetic walk");
+  EXPECT_EQ(missing.size(), 5u);
+}

@@ -25,12 +25,14 @@
 #include <maskadapt/tracking/builtin_generator.hpp>
 #include <maskadapt/tracking/generator.hpp>
 #include <maskadapt/tracking/primitive_dataset.hpp>
+#include <maskadapt/humanoid/synthetic.hpp>
 
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
 #include <cmath>
 #include <cstdlib>
+#include <filesystem>
 #include <string>
 #include <utility>
 #include <vector>
@@ -55,6 +57,48 @@ inline MatrixXd arm_features(const Skeleton& skel, const Trajectory& t, Index be
     for (int k = 0; k < 4; ++k) f.block<3, 1>(3 * k, j) = Rt * (t.body_pos.block<3, 1>(3 * bodies[k], i) - pelvis);
   }
   return f;
+}
+
+/// What the issue-42 bars read from a span of frames (body_pos filled). Heights are world z
+/// differences (m); the walking figures come from the root.
+struct ArmWindowStats {
+  double wrist_max = 0;        ///< max over the span and both wrists of the wrist's height above the pelvis (m)
+  double wrist_range = 0;      ///< max − min over the span of that height, for the wrist that reaches highest (m)
+  double wrist_freq = 0;       ///< that wrist's height: crossings of its span mean / (2 · span duration) (Hz)
+  double right_over_head = 0;  ///< max over the span of R_Wrist z − Head z (m; > 0: the right wrist above the head)
+  double left_over_head = 0;   ///< the same for L_Wrist (m)
+  double pelvis_height = 0;    ///< mean root z (m)
+  double speed = 0;            ///< net horizontal root displacement over the span / its duration (m/s)
+};
+
+/// Statistics of frames [begin, begin + n) of t (n ≥ 2; see ArmWindowStats).
+inline ArmWindowStats window_stats(const Skeleton& skel, const Trajectory& t, Index begin, Index n) {
+  require(begin >= 0 && n >= 2 && begin + n <= t.num_frames(), "window statistics need a span of ≥ 2 frames inside the trajectory",
+          {{}, {}, "span"});
+  require(t.body_pos.rows() == 3 * skel.num_bodies(), "trajectory has no body positions", {{}, {}, "body_pos"});
+  const int lw = skel.index_of("L_Wrist"), rw = skel.index_of("R_Wrist"), head = skel.index_of("Head");
+  const int pelvis = 0;
+  const auto z = [&](int b, Index i) { return t.body_pos(3 * b + 2, begin + i); };
+  VectorXd hl(n), hr(n);  // wrist heights above the pelvis (m), (n)
+  ArmWindowStats s;
+  s.right_over_head = s.left_over_head = -1e9;
+  for (Index i = 0; i < n; ++i) {
+    hl[i] = z(lw, i) - z(pelvis, i);
+    hr[i] = z(rw, i) - z(pelvis, i);
+    s.right_over_head = std::max(s.right_over_head, z(rw, i) - z(head, i));
+    s.left_over_head = std::max(s.left_over_head, z(lw, i) - z(head, i));
+    s.pelvis_height += t.root_pos(2, begin + i) / static_cast<double>(n);
+  }
+  const VectorXd& h = hl.maxCoeff() >= hr.maxCoeff() ? hl : hr;
+  s.wrist_max = h.maxCoeff();
+  s.wrist_range = h.maxCoeff() - h.minCoeff();
+  const double mean = h.mean();
+  int crossings = 0;
+  for (Index i = 1; i < n; ++i) crossings += (h[i - 1] - mean) * (h[i] - mean) < 0 ? 1 : 0;
+  const double duration = static_cast<double>(n - 1) / t.fps;
+  s.wrist_freq = crossings / (2.0 * duration);
+  s.speed = (t.root_pos.block<2, 1>(0, begin + n - 1) - t.root_pos.block<2, 1>(0, begin)).norm() / duration;
+  return s;
 }
 
 /// Mean, std, minimum and maximum over time (48) of arm features (12 × n).
@@ -249,9 +293,12 @@ struct PromptEvalOptions {
 
 /// See file comment. `histories`: K ≥ 1 world-frame walking histories (≥ H frames each);
 /// `classify` gets the prompt's index into `prompts` as truth.
+/// `stats` (optional): per prompt, per sample, the ArmWindowStats of the classified span
+/// ((prompts) × (samples)); it changes no random draw, so the report is the same with or without.
 template <TrajectoryGenerator G>
 ArmFollowingReport evaluate_prompts(G& g, const std::vector<std::string>& prompts, const std::vector<Trajectory>& histories,
-                                    const ArmClassifier& clf, const PromptEvalOptions& opt) {
+                                    const ArmClassifier& clf, const PromptEvalOptions& opt,
+                                    std::vector<std::vector<ArmWindowStats>>* stats = nullptr) {
   require(!prompts.empty() && !histories.empty() && opt.samples >= 1 && opt.lead_s >= 0 && opt.span_s > 0,
           "evaluate_prompts: need prompts, histories, samples ≥ 1, span > 0", {{}, {}, "PromptEvalOptions"});
   require(clf.num_classes() == static_cast<int>(prompts.size()), "classifier classes and prompts differ",
@@ -264,6 +311,7 @@ ArmFollowingReport evaluate_prompts(G& g, const std::vector<std::string>& prompt
   const int C = static_cast<int>(prompts.size());
   r.confusion = Eigen::MatrixXi::Zero(C, C);
   const std::size_t K = histories.size();
+  if (stats) stats->assign(static_cast<std::size_t>(C), {});
   for (int p = 0; p < C; ++p) {
     std::vector<std::vector<MatrixXd>> by_history(K);
     const std::string& prompt = prompts[static_cast<std::size_t>(p)];
@@ -276,6 +324,7 @@ ArmFollowingReport evaluate_prompts(G& g, const std::vector<std::string>& prompt
       compute_body_positions(skel, t);
       const MatrixXd f = arm_features(skel, t, lead, span);
       ++r.confusion(p, clf.predict(arm_summary(f)));
+      if (stats) (*stats)[static_cast<std::size_t>(p)].push_back(window_stats(skel, t, lead, span));
       by_history[h].push_back(f);
     }
     r.accuracy.push_back(static_cast<double>(r.confusion(p, p)) / static_cast<double>(opt.samples));
@@ -300,6 +349,7 @@ struct ArmSamples {
   std::vector<int> labels;
   std::vector<MatrixXd> features;  ///< (N) 12 × span each
   std::vector<int> clip;           ///< (N) index of the source clip
+  std::vector<ArmWindowStats> stats;  ///< (N) the window's statistics (window_stats)
 };
 
 inline ArmSamples collect_arm_samples(const Skeleton& skel, const std::vector<LabelledTrajectory>& clips,
@@ -325,6 +375,7 @@ inline ArmSamples collect_arm_samples(const Skeleton& skel, const std::vector<La
         out.features.push_back(std::move(f));
         out.labels.push_back(static_cast<int>(it - prompts.begin()));
         out.clip.push_back(static_cast<int>(ci));
+        if (span >= 2) out.stats.push_back(window_stats(skel, t, s, span));
       }
     }
   }
@@ -402,6 +453,145 @@ inline GeneratorEvalSet make_generator_eval_set(const std::string& data_dir, con
     e.histories.push_back(w.motion.slice(end - history_frames, history_frames));
   }
   return e;
+}
+
+/// One source of walking histories for the per-source probe (issue 42): K histories (world frame,
+/// H frames each) and, per history, the statistics of the second of motion that ends with it (30
+/// frames, or the whole clip up to there when shorter): the pelvis height and walking speed that
+/// the generated frames are compared with.
+struct WalkingHistorySource {
+  std::string name;
+  std::vector<Trajectory> histories;        ///< (K) world frame, H frames each
+  std::vector<ArmWindowStats> reference;    ///< (K) statistics of the second ending with each history
+};
+
+/// History k: the H frames of clips[k mod size] ending at frame ends[k] (clamped to [H, frames]).
+inline WalkingHistorySource walking_history_source(const std::string& name, const Skeleton& skel,
+                                                   const std::vector<LabelledTrajectory>& clips,
+                                                   const std::vector<Index>& ends, Index history_frames = 5) {
+  require(!clips.empty() && !ends.empty() && history_frames >= 2, "a history source needs clips, end frames and H ≥ 2",
+          {{}, {}, name});
+  WalkingHistorySource s;
+  s.name = name;
+  for (std::size_t k = 0; k < ends.size(); ++k) {
+    Trajectory m = clips[k % clips.size()].motion;
+    require(m.num_frames() >= history_frames, "clip '" + clips[k % clips.size()].name + "' is shorter than the history",
+            {{}, {}, name});
+    if (m.body_pos.rows() != 3 * skel.num_bodies()) compute_body_positions(skel, m);
+    const Index end = std::clamp<Index>(ends[k], history_frames, m.num_frames());
+    s.histories.push_back(m.slice(end - history_frames, history_frames));
+    const Index ref = std::min<Index>(30, end);
+    s.reference.push_back(window_stats(skel, m, end - ref, ref));
+  }
+  return s;
+}
+
+/// The walking sources of the shared data (issue 42), each with K = 2 histories ending at `ends`
+/// (default 2 s and 3 s: frames 60 and 90, clamped to the clip): "bandai" (the straight walks 1
+/// and 2; with the default ends exactly the histories of make_generator_eval_set), then the groups
+/// of other_walk_groups: "cmu 02_01", "cmu 07_01", "styles walk", "styles female-walk" (their
+/// single clip at both ends) and the built-in "synthetic walk". A source whose file is absent is
+/// left out and named in `missing`.
+inline std::vector<WalkingHistorySource> walking_history_sources(const std::string& data_dir, const Skeleton& skel,
+                                                                 Index history_frames = 5,
+                                                                 std::vector<std::string>* missing = nullptr,
+                                                                 const std::vector<Index>& ends = {60, 90}) {
+  namespace fs = std::filesystem;
+  std::vector<WalkingHistorySource> out;
+  if (const MotionSetSpec* spec = find_motion_set("bandai-walk-straight");
+      spec && !data_dir.empty() && fs::is_directory(fs::path(data_dir) / spec->folder)) {
+    const auto walks = load_motion_set(*spec, data_dir);
+    std::vector<LabelledTrajectory> two;
+    for (std::size_t k = 0; k < 2 && k < walks.size(); ++k) two.push_back(labelled_from_clip(walks[k], skel));
+    out.push_back(walking_history_source("bandai", skel, two, ends, history_frames));
+  } else if (missing) {
+    missing->push_back((fs::path(data_dir) / "motions/bandai/locomotion").string());
+  }
+  for (const WalkGroup& g : other_walk_groups(data_dir, missing)) {
+    std::vector<LabelledTrajectory> l;
+    for (const auto& c : g.clips) l.push_back(labelled_from_clip(c, skel));
+    out.push_back(walking_history_source(g.name, skel, l, ends, history_frames));
+  }
+  return out;
+}
+
+/// The per-source figures of issue 42 (NaN where the pool lacks the prompt):
+///  - accuracy: the probe's, over every prompt;
+///  - arms_high_share: share of "arms high" samples whose wrist reaches ≥ 0.6 m above the pelvis;
+///  - wave_share[0..2]: share of "wave right hand" / "wave left hand" / "wave both hands" samples
+///    whose right / left / both wrists rise above the head;
+///  - pelvis_ratio, speed_ratio: generated over the history's reference (ArmWindowStats), the mean
+///    over all samples, and the prompt whose mean ratio lies farthest from 1 (its ratio).
+struct SourceSummary {
+  std::string source;
+  double accuracy = 0;
+  double arms_high_share = NAN, arms_high_median = NAN;  ///< share; median wrist_max (m)
+  double wave_share[3] = {NAN, NAN, NAN};
+  double pelvis_ratio = 0, pelvis_worst = 1, speed_ratio = 0, speed_worst = 1;
+  std::string pelvis_worst_prompt, speed_worst_prompt;
+  /// The bars: accuracy ≥ 0.85, arms high in ≥ 80 % of samples, every wave above the head in
+  /// ≥ 80 %, and the mean pelvis and speed ratios within 10 % of 1.
+  bool meets_bars() const {
+    const auto ok = [](double v) { return !std::isfinite(v) || v >= 0.8; };
+    return accuracy >= 0.85 && ok(arms_high_share) && ok(wave_share[0]) && ok(wave_share[1]) && ok(wave_share[2]) &&
+           std::abs(pelvis_ratio - 1) <= 0.1 && std::abs(speed_ratio - 1) <= 0.1;
+  }
+};
+
+inline double median_of(std::vector<double> v) {
+  if (v.empty()) return NAN;
+  std::sort(v.begin(), v.end());
+  const std::size_t n = v.size();
+  return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+}
+
+/// Summarises one source's report and statistics (evaluate_prompts' `stats`); sample i of a
+/// prompt continued history i mod K, whose reference it is compared with.
+inline SourceSummary summarise_source(const WalkingHistorySource& src, const ArmFollowingReport& r,
+                                      const std::vector<std::vector<ArmWindowStats>>& stats) {
+  require(stats.size() == r.classes.size() && !src.reference.empty(), "statistics and prompts differ", {{}, {}, src.name});
+  SourceSummary s;
+  s.source = src.name;
+  s.accuracy = r.overall_accuracy();
+  const auto find = [&](const char* p) {
+    const auto it = std::find(r.classes.begin(), r.classes.end(), p);
+    return it == r.classes.end() ? -1 : static_cast<int>(it - r.classes.begin());
+  };
+  if (const int p = find("arms high"); p >= 0) {
+    std::vector<double> m;
+    for (const auto& w : stats[static_cast<std::size_t>(p)]) m.push_back(w.wrist_max);
+    s.arms_high_share = static_cast<double>(std::count_if(m.begin(), m.end(), [](double v) { return v >= 0.6; })) / m.size();
+    s.arms_high_median = median_of(m);
+  }
+  const char* waves[3] = {"wave right hand", "wave left hand", "wave both hands"};
+  for (int k = 0; k < 3; ++k)
+    if (const int p = find(waves[k]); p >= 0) {
+      const auto& v = stats[static_cast<std::size_t>(p)];
+      const auto up = [k](const ArmWindowStats& w) {
+        return k == 0 ? w.right_over_head > 0 : k == 1 ? w.left_over_head > 0 : std::min(w.right_over_head, w.left_over_head) > 0;
+      };
+      s.wave_share[k] = static_cast<double>(std::count_if(v.begin(), v.end(), up)) / v.size();
+    }
+  double sp = 0, ss = 0;
+  std::size_t n = 0;
+  for (std::size_t p = 0; p < stats.size(); ++p) {
+    double pp = 0, ps = 0;
+    for (std::size_t i = 0; i < stats[p].size(); ++i) {
+      const ArmWindowStats& ref = src.reference[i % src.reference.size()];
+      pp += stats[p][i].pelvis_height / ref.pelvis_height;
+      ps += stats[p][i].speed / std::max(ref.speed, 1e-6);
+    }
+    sp += pp;
+    ss += ps;
+    n += stats[p].size();
+    pp /= static_cast<double>(stats[p].size());
+    ps /= static_cast<double>(stats[p].size());
+    if (std::abs(pp - 1) >= std::abs(s.pelvis_worst - 1)) s.pelvis_worst = pp, s.pelvis_worst_prompt = r.classes[p];
+    if (std::abs(ps - 1) >= std::abs(s.speed_worst - 1)) s.speed_worst = ps, s.speed_worst_prompt = r.classes[p];
+  }
+  s.pelvis_ratio = sp / static_cast<double>(n);
+  s.speed_ratio = ss / static_cast<double>(n);
+  return s;
 }
 
 /// Paraphrases of the catalog's prompts made of known words (docs/generator.md reports them).
