@@ -33,6 +33,22 @@ std::string data_dir() {
   return env && *env ? std::string(env) : maskadapt::build_paths::default_data_dir();
 }
 
+/// The arm-following probe's setup (the seed of `maskadapt eval-generator`): the shipped generator
+/// and the evaluation set of the shared data; skips when the arm clips are absent.
+class ShippedGeneratorProbe : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    if (!std::filesystem::is_directory(dir + "/motions/bandai/gestures"))
+      GTEST_SKIP() << "no arm clips under " << dir << "/motions (set MASKADAPT_DATA_DIR): the probe needs them";
+    g = BuiltinGenerator::load(kPath, humanoid_skeleton());
+    Rng rng(12345);
+    ev = make_generator_eval_set(dir, humanoid_skeleton(), rng);
+  }
+  const std::string dir = data_dir();
+  BuiltinGenerator g;
+  GeneratorEvalSet ev;
+};
+
 }  // namespace
 
 TEST(ShippedGenerator, LoadsWithItsSizesPoolAndProvenance) {
@@ -57,14 +73,7 @@ TEST(ShippedGenerator, LoadsWithItsSizesPoolAndProvenance) {
   EXPECT_LT(std::filesystem::file_size(kPath), 16u << 20);
 }
 
-TEST(ShippedGenerator, FollowsItsArmsPromptsFromAWalk) {
-  const std::string dir = data_dir();
-  if (!std::filesystem::is_directory(dir + "/motions/bandai/gestures"))
-    GTEST_SKIP() << "no arm clips under " << dir << "/motions (set MASKADAPT_DATA_DIR): the probe needs them";
-  const Skeleton& skel = humanoid_skeleton();
-  BuiltinGenerator g = BuiltinGenerator::load(kPath, skel);
-  Rng rng(12345);  // the seed of `maskadapt eval-generator`
-  const GeneratorEvalSet ev = make_generator_eval_set(dir, skel, rng);
+TEST_F(ShippedGeneratorProbe, FollowsItsArmsPromptsFromAWalk) {
   ASSERT_EQ(ev.prompts, g.arms_pool());
   PromptEvalOptions o;
   o.samples = 10;
@@ -87,16 +96,9 @@ TEST(ShippedGenerator, FollowsItsArmsPromptsFromAWalk) {
 
 // Issue 42: from every walking source of the shared data and from the built-in walk (the probe and
 // the figures of `eval-generator --per-source`; floors in shipped_generator_floors.hpp).
-TEST(ShippedGenerator, FollowsItsArmsPromptsFromEveryWalkingSource) {
-  const std::string dir = data_dir();
-  if (!std::filesystem::is_directory(dir + "/motions/bandai/gestures"))
-    GTEST_SKIP() << "no arm clips under " << dir << "/motions (set MASKADAPT_DATA_DIR): the probe needs them";
-  const Skeleton& skel = humanoid_skeleton();
-  BuiltinGenerator g = BuiltinGenerator::load(kPath, skel);
-  Rng rng(12345);
-  const GeneratorEvalSet ev = make_generator_eval_set(dir, skel, rng);
+TEST_F(ShippedGeneratorProbe, FollowsItsArmsPromptsFromEveryWalkingSource) {
   std::vector<std::string> missing;
-  const auto sources = walking_history_sources(dir, skel, g.history_frames(), &missing);
+  const auto sources = walking_history_sources(dir, humanoid_skeleton(), g.history_frames(), &missing);
   ASSERT_TRUE(missing.empty()) << missing.front();
   ASSERT_EQ(sources.size(), std::size(test::kDataSourceFloors));
   PromptEvalOptions o;
