@@ -11,6 +11,7 @@
 #include <cmath>
 #include <cstdint>
 #include <limits>
+#include <vector>
 
 namespace maskadapt {
 
@@ -115,5 +116,18 @@ class Rng {
   double spare_normal_ = 0.0;
   bool has_spare_normal_ = false;
 };
+
+/// Index i drawn with probability weights[i] / Σ weights (one uniform draw of `rng`; the last
+/// index when rounding leaves u past every weight). Weights must be finite, ≥ 0, not all 0.
+inline std::size_t draw_weighted(const std::vector<double>& weights, Rng& rng) {
+  double total = 0;
+  for (double w : weights) total += w;
+  double u = rng.uniform() * total;
+  for (std::size_t i = 0; i + 1 < weights.size(); ++i) {
+    if (u < weights[i]) return i;
+    u -= weights[i];
+  }
+  return weights.empty() ? 0 : weights.size() - 1;
+}
 
 }  // namespace maskadapt

@@ -186,18 +186,8 @@ class MotionLibrary {
   /// [min_time, duration] (clamped when the clip is shorter than min_time).
   ClipTime sample(Rng& rng, bool by_weight = true, double min_time = 0.0) const {
     require(!clips_.empty(), "the motion library is empty", {{}, {}, "library"});
-    int c = 0;
-    if (by_weight) {
-      double total = 0;
-      for (double w : weights_) total += w;
-      double u = rng.uniform() * total;
-      for (c = 0; c + 1 < num_clips(); ++c) {
-        if (u < weights_[static_cast<std::size_t>(c)]) break;
-        u -= weights_[static_cast<std::size_t>(c)];
-      }
-    } else {
-      c = static_cast<int>(rng.uniform_int(static_cast<std::uint64_t>(num_clips())));
-    }
+    const int c = by_weight ? static_cast<int>(draw_weighted(weights_, rng))
+                            : static_cast<int>(rng.uniform_int(static_cast<std::uint64_t>(num_clips())));
     const double D = clips_[static_cast<std::size_t>(c)].duration();
     const double lo = std::min(min_time, D);
     return {c, rng.uniform(lo, D)};
@@ -252,11 +242,7 @@ class MotionLibrary {
   /// (≤ 1e−15 s); clamping at the ends of a non-looping clip is the same as clip_state's.
   void amp_window(int clip, double t_end, Eigen::Ref<VectorXf> out) const {
     const Index d = observation_dim(skel_);
-    require(out.size() % d == 0 && out.size() / d >= 1 && out.size() / d <= kAmpWindowFrames,
-            "AMP window output has the wrong size (" + std::to_string(out.size()) + "; expected 1 to " +
-                std::to_string(kAmpWindowFrames) + " times " + std::to_string(d) + ")",
-            {{}, {}, "amp_window"});
-    const int frames = static_cast<int>(out.size() / d);
+    const int frames = window_frames_of(out.size(), "amp_window");
     const MotionClip& c = this->clip(clip);
     // per-thread pose buffers: a batch of windows allocates nothing once each thread has seen one
     thread_local WindowScratch scratch;
@@ -298,11 +284,7 @@ class MotionLibrary {
   }
   /// The same into `out` (amp_window_dim(F) × batch), one window of F frames per column.
   void sample_amp_windows(Rng& rng, Eigen::Ref<MatrixXf> out, ThreadPool* pool = nullptr) const {
-    const Index d = observation_dim(skel_);
-    require(out.rows() % d == 0 && out.rows() / d >= 1 && out.rows() / d <= kAmpWindowFrames,
-            "AMP window batch has the wrong number of rows (" + std::to_string(out.rows()) + "; expected 1 to " +
-                std::to_string(kAmpWindowFrames) + " times " + std::to_string(d) + ")",
-            {{}, {}, "amp_windows"});
+    (void)window_frames_of(out.rows(), "amp_windows");
     const auto batch = static_cast<int>(out.cols());
     std::vector<ClipTime> times(static_cast<std::size_t>(batch));
     for (auto& ct : times) ct = sample(rng, true, (kAmpWindowFrames - 1) * kAmpFrameDt);
@@ -325,6 +307,17 @@ class MotionLibrary {
   }
 
  private:
+  /// F of an AMP window of `rows` features (F · observation_dim, 1 ≤ F ≤ kAmpWindowFrames); throws
+  /// naming `field` otherwise.
+  int window_frames_of(Index rows, const char* field) const {
+    const Index d = observation_dim(skel_);
+    require(rows % d == 0 && rows / d >= 1 && rows / d <= kAmpWindowFrames,
+            "AMP window has the wrong number of rows (" + std::to_string(rows) + "; expected 1 to " +
+                std::to_string(kAmpWindowFrames) + " times " + std::to_string(d) + ")",
+            {{}, {}, field});
+    return static_cast<int>(rows / d);
+  }
+
   struct WindowScratch {  ///< amp_window's buffers (one per thread)
     std::array<KinematicState, kAmpWindowFrames + 2> grid;  ///< poses t_end − 5Δ … t_end + Δ
     KinematicState state;

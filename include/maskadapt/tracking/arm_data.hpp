@@ -170,18 +170,6 @@ struct ArmSwitchOptions {
   std::vector<double> walk_weights;
 };
 
-/// Index drawn with probability weights[i] / Σ weights (one uniform draw).
-inline std::size_t draw_weighted(const std::vector<double>& weights, Rng& rng) {
-  double total = 0;
-  for (double w : weights) total += w;
-  double u = rng.uniform() * total;
-  for (std::size_t i = 0; i < weights.size(); ++i) {
-    if (u < weights[i]) return i;
-    u -= weights[i];
-  }
-  return weights.size() - 1;
-}
-
 /// Walking clips whose arms switch to each class's motion (see file comment). `walks`: world-frame
 /// walking clips (30 Hz) with their labels; the result holds segments labelled walk texts / class
 /// texts. Deterministic given rng.
