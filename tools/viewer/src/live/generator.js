@@ -143,40 +143,67 @@ export class Generator {
   }
 
   /**
+   * What stays fixed over the T denoising steps of one sample: the text embedding e = P φ + b (E),
+   * whether the prompt is unconditional (all-zero features), and the first layer's partial sums
+   * over the history and over e (the C++ computes them once per sample too).
+   */
+  denoiserContext(tf, hn) {
+    const { L, E, timeEmbed } = this;
+    const embedding = this.projection.forward(tf);
+    let unconditional = true;
+    for (let i = 0; i < tf.length; ++i) if (tf[i] !== 0) unconditional = false;
+    const hOff = L + timeEmbed + E;
+    return {
+      embedding,
+      unconditional,
+      partialHistory: this.net.firstLayerPartial(hn, hOff, hOff + hn.length),
+      partialText: this.net.firstLayerPartial(embedding, L + timeEmbed, hOff),
+      input: new Float32Array(L + timeEmbed), // [x_t ; τ(t)], reused
+    };
+  }
+
+  /**
+   * One denoiser call: x̂₀ for latent x_t (L) at step t, { cond, uncond, x0 } (uncond null when
+   * the prompt is unconditional or the guidance is 1; x0 = w·cond + (1 − w)·uncond).
+   */
+  predictX0(ctx, x, t) {
+    const { L, timeEmbed } = this;
+    const w = this.guidance;
+    ctx.input.set(x, 0);
+    ctx.input.set(timestepEmbedding(t, timeEmbed), L);
+    const partials = ctx.unconditional ? [ctx.partialHistory] : [ctx.partialHistory, ctx.partialText];
+    const cond = this.net.forward(ctx.input, new Float32Array(L), partials, L + timeEmbed);
+    if (ctx.unconditional || w === 1) return { cond, uncond: null, x0: cond };
+    const uncond = this.net.forward(ctx.input, new Float32Array(L), [ctx.partialHistory], L + timeEmbed);
+    return { cond, uncond, x0: guidedPrediction(cond, uncond, w) };
+  }
+
+  /** σ of the noise added after step t > 0: √(posterior variance), times the temperature τ (float). */
+  noiseScale(t) {
+    const sd = Math.sqrt(this.schedule.posteriorVariance[t]);
+    return Math.fround(this.temperature === 1 ? sd : Math.fround(this.temperature) * Math.fround(sd));
+  }
+
+  /**
    * Latent (L) for normalised history hn and text features tf: guided DDPM with normals from
    * `noise`, times latent_scale. `trace` (optional) receives every intermediate.
    */
   sampleLatent(tf, hn, noise, trace = null) {
-    const { L, E, timeEmbed } = this;
-    const e = this.projection.forward(tf);
-    let unconditional = true;
-    for (let i = 0; i < tf.length; ++i) if (tf[i] !== 0) unconditional = false;
-    const w = this.guidance;
-    const hOff = L + timeEmbed + E;
-    const pH = this.net.firstLayerPartial(hn, hOff, hOff + hn.length);
-    const pE = this.net.firstLayerPartial(e, L + timeEmbed, hOff);
-    const xin = new Float32Array(L + timeEmbed);
-    const predict = (x, t) => {
-      xin.set(x, 0);
-      xin.set(timestepEmbedding(t, timeEmbed), L);
-      const cond = this.net.forward(xin, new Float32Array(L), unconditional ? [pH] : [pH, pE], L + timeEmbed);
-      if (unconditional || w === 1) return { cond, uncond: null, x0: cond };
-      const uncond = this.net.forward(xin, new Float32Array(L), [pH], L + timeEmbed);
-      return { cond, uncond, x0: guidedPrediction(cond, uncond, w) };
-    };
+    const { L } = this;
+    const ctx = this.denoiserContext(tf, hn);
     const tau = Math.fround(this.temperature);
     let x = new Float32Array(L);
     for (let i = 0; i < L; ++i) x[i] = this.temperature === 1 ? Math.fround(noise.normal()) : Math.fround(tau * Math.fround(noise.normal()));
     const steps = [];
-    if (trace) Object.assign(trace, { textFeatures: tf, embedding: e, unconditional, initialNoise: x.slice(), steps });
+    if (trace) Object.assign(trace, { textFeatures: tf, embedding: ctx.embedding, unconditional: ctx.unconditional, initialNoise: x.slice(), steps });
     const s = this.schedule;
     for (let t = s.numSteps - 1; t >= 0; --t) {
-      const p = predict(x, t);
+      const p = this.predictX0(ctx, x, t);
       for (let i = 0; i < L; ++i) if (!Number.isFinite(p.x0[i])) throw new Error(`generator: the denoiser's x0_hat is not finite at step ${t}`);
       const next = posteriorMean(s, t, p.x0, x);
       let z = null;
       if (t > 0) {
-        const sigma = Math.fround(this.temperature === 1 ? Math.sqrt(s.posteriorVariance[t]) : tau * Math.fround(Math.sqrt(s.posteriorVariance[t])));
+        const sigma = this.noiseScale(t);
         z = new Float32Array(L);
         for (let i = 0; i < L; ++i) {
           z[i] = Math.fround(noise.normal());
