@@ -33,7 +33,7 @@ struct EvalBaseArgs {
   long long frames = 1000, seed = 1;
   double threshold = 0.5, episode_seconds = 10.0;
   std::string counting = "nearest";
-  bool deterministic = false;
+  bool deterministic = false, per_class = false;
   std::vector<std::string> masks;  ///< --masks: evaluate only these (empty: all 16)
 };
 
@@ -85,7 +85,16 @@ void run_eval_base(const EvalBaseArgs& a) {
   ev.reference_speed = reference_mean_speed(*lib);
   std::cout << "\n";
   if (opt.masks.empty()) std::cout << format_hnorm_table(ev, false) << "\n" << format_hnorm_table(ev, true) << "\n";
-  std::cout << format_episode_table(ev) << "eval-base: " << clock.seconds() << " s\n";
+  std::cout << format_episode_table(ev);
+  std::vector<ClassEvaluation> by_class;
+  if (a.per_class) {
+    std::cout << "\neval-base: per starting class (episodes start only from frames of the class; "
+              << (opt.masks.empty() ? "null mask and both legs" : "the masks above") << ")\n";
+    by_class = evaluate_by_start_class(sim, loaded.policy, lib, opt, character.fall_criteria(loaded.config.env.termination_height),
+                                       loaded.config.env.termination_height, &pool, &std::cout);
+    std::cout << "\n" << format_class_table(by_class);
+  }
+  std::cout << "eval-base: " << clock.seconds() << " s\n";
   if (!a.json.empty()) {
     nlohmann::json j = to_json(ev);
     j["checkpoint"] = a.checkpoint;
@@ -95,6 +104,7 @@ void run_eval_base(const EvalBaseArgs& a) {
     j["motions"] = motions;
     j["lambda_mi"] = loaded.config.mask.lambda_mi;
     j["masking"] = loaded.config.mask.enabled;
+    if (a.per_class) j["per_class"] = to_json(by_class);
     write_json(a.json, j);
     std::cout << "eval-base: table written to " << a.json << "\n";
   }
@@ -192,6 +202,9 @@ const bool registered = maskadapt::cli::register_command([](CLI::App& app) {
                 "(every reference frame within the threshold, the paper's wording)")
       ->check(CLI::IsMember({"nearest", "all_within"}));
   c->add_flag("--deterministic", args->deterministic, "use the policy mean instead of sampling");
+  c->add_flag("--per-class", args->per_class,
+              "also start episodes from each class of the clips' frames (stand, walk, run, backward, sideways, turn: "
+              "motion/motion_class.hpp) and report falls and speed per class beside the clips'");
   c->add_option("--masks", args->masks,
                 "evaluate only these masks, e.g. --masks none legs left_arm,right_arm (default: the null mask and "
                 "every mask of one or two parts)")

@@ -303,3 +303,88 @@ TEST(EvalBase, ASubsetOfMasksGivesTheWholeTablesRowsForThoseMasks) {
   EXPECT_EQ(j["table_rsi"][3][4].get<double>(), subset.rows[0].rsi.h_norm);  // left_leg × right_leg
   EXPECT_TRUE(j["table_rsi"][0][0].is_null());                               // trunk: not evaluated
 }
+
+namespace {
+/// A 30-Hz clip on the tiny walker: root at (v·t, y0, 1 m) facing +x, all joints at zero.
+MotionClip tiny_line(const Skeleton& skel, double v, double y0) {
+  MotionClip c;
+  c.name = v == 0 ? "tiny_stand" : "tiny_walk";
+  c.fps = 30;
+  c.resize(61, skel.num_dofs());
+  for (int t = 0; t < c.num_frames(); ++t) {
+    c.root_pos.col(t) = Vec3(v * t / 30.0, y0, TinyWalkerSim::kHeight);
+    c.set_rot(t, Quat::Identity());
+  }
+  return c;
+}
+}  // namespace
+
+// `eval-base --per-class`: a library of a standing clip (at y = 0) and a 1 m/s walk (at y = 5)
+// has two classes, each with the 57 frames at t ≥ 4/30 s (1.9 s) and the clips' speed there
+// (0 and 1 m/s); a class's resets come from its own clip only; the evaluation gives one row per
+// (class, mask), without H_norm, with the same episode counts as evaluate_visitation from that
+// class's sampler, and its table and JSON carry those rows.
+TEST(EvalBase, PerClassStartsComeOnlyFromTheirClassAndReportTheClipsSpeed) {
+  Fixture f(2);
+  const Skeleton& skel = f.sim.skeleton();
+  auto lib = std::make_shared<MotionLibrary>(skel);
+  lib->add(tiny_line(skel, 0.0, 0.0));
+  lib->add(tiny_line(skel, 1.0, 5.0));
+  const std::vector<ClassStarts> classes = class_starts(*lib);
+  ASSERT_EQ(classes.size(), 2u);
+  EXPECT_EQ(classes[0].motion_class, MotionClass::stand);
+  EXPECT_EQ(classes[1].motion_class, MotionClass::walk);
+  for (const auto& cs : classes) {
+    EXPECT_EQ(cs.starts.size(), 57u);
+    EXPECT_NEAR(cs.seconds, 57 / 30.0, 1e-12);
+    for (const ClipTime& ct : cs.starts) EXPECT_GE(ct.time, kEarliestResetTime - 1e-12);
+  }
+  EXPECT_NEAR(classes[0].mean_speed, 0.0, 1e-12);
+  EXPECT_NEAR(classes[1].mean_speed, 1.0, 1e-9);
+  EXPECT_NEAR(classes[1].mean_forward, 1.0, 1e-9);
+  for (const auto& cs : classes) {
+    const auto reset = class_reset_sampler(lib, std::make_shared<const ClassStarts>(cs));
+    Rng rng(4);
+    for (int k = 0; k < 50; ++k) {
+      const tasks::ResetSample r = reset(rng);
+      EXPECT_EQ(r.pose.root_pos.y(), cs.motion_class == MotionClass::stand ? 0.0 : 5.0);
+      EXPECT_EQ(r.history.cols(), kAmpWindowFrames - 1);
+    }
+  }
+  EXPECT_THROW((void)class_reset_sampler(lib, std::make_shared<const ClassStarts>()), Error);
+
+  EvalBaseOptions opt;
+  opt.frames = 30;
+  opt.episode_seconds = 0.4;
+  opt.masks = {PartMask::none(), PartMask::parse("legs")};
+  const auto rows = evaluate_by_start_class(f.sim, f.policy, lib, opt, f.fall());
+  ASSERT_EQ(rows.size(), 4u);  // 2 classes × 2 masks
+  EXPECT_EQ(rows[0].motion_class, MotionClass::stand);
+  EXPECT_EQ(rows[3].motion_class, MotionClass::walk);
+  EXPECT_EQ(rows[3].mask, PartMask::parse("legs"));
+  EXPECT_NEAR(rows[3].reference_speed, 1.0, 1e-9);
+  for (const auto& r : rows) {
+    EXPECT_TRUE(std::isnan(r.result.h_norm));
+    EXPECT_GE(r.result.episodes, 2);  // 0.4-s episodes over 1 s: every env ends at least one
+    EXPECT_TRUE(std::isfinite(r.result.mean_speed));
+    EXPECT_LE(std::abs(r.result.mean_forward_speed), r.result.mean_speed + 1e-12);
+  }
+  // the walk's null-mask row is evaluate_visitation from the walk's sampler (same seed)
+  EvalBaseOptions one = opt;
+  one.entropy = false;
+  const MatrixXf no_reference(3 * (skel.num_bodies() - 1), 0);
+  const VisitationResult direct = evaluate_visitation(f.sim, f.policy, class_reset_sampler(lib, std::make_shared<const ClassStarts>(classes[1])),
+                                                      PartMask::none(), no_reference, one, f.fall());
+  EXPECT_EQ(direct.episodes, rows[2].result.episodes);
+  EXPECT_EQ(direct.falls, rows[2].result.falls);
+  EXPECT_EQ(direct.mean_speed, rows[2].result.mean_speed);
+  const std::string table = format_class_table(rows);
+  EXPECT_EQ(std::count(table.begin(), table.end(), '\n'), 6);  // header, 4 rows, footer
+  EXPECT_NE(table.find("walk"), std::string::npos);
+  const nlohmann::json j = to_json(rows);
+  ASSERT_EQ(j.size(), 4u);
+  EXPECT_EQ(j[3]["class"], "walk");
+  EXPECT_EQ(j[3]["mask"], PartMask::parse("legs").to_string());
+  EXPECT_EQ(j[2]["result"]["episodes"].get<long long>(), rows[2].result.episodes);
+  EXPECT_TRUE(j[2]["result"]["h_norm"].is_null());
+}

@@ -13,12 +13,20 @@
 /// H_norm is computed against the reference frames' features with `threshold` (Euclidean, m).
 /// Every (mask, mode) uses the same seeds (common random numbers), so differences between masks
 /// are not sampling noise of the initial states.
+///
+/// Per starting class (`eval-base --per-class`, evaluate_by_start_class): the clips' frames are
+/// classified by their root motion (motion/motion_class.hpp: stand, walk, run, backward, sideways,
+/// turn); for each class with frames, episodes start (and restart after a fall) only from frames
+/// of that class, and their falls, speed and forward speed are set beside the clips' own mean
+/// speed and forward speed over those frames.
 #include <maskadapt/core/error.hpp>
 #include <maskadapt/core/rng.hpp>
 #include <maskadapt/eval/visitation_entropy.hpp>
 #include <maskadapt/motion/library.hpp>
+#include <maskadapt/motion/motion_class.hpp>
 #include <maskadapt/tasks/imitation.hpp>
 #include <maskadapt/train/base_policy.hpp>
+#include <maskadapt/train/motion_sources.hpp>
 
 #include <nlohmann/json.hpp>
 
@@ -42,6 +50,7 @@ struct EvalBaseOptions {
   /// mask's rows are the same whichever others are evaluated (common random numbers).
   std::vector<PartMask> masks;
   bool deterministic = false;    ///< policy mean instead of samples
+  bool entropy = true;           ///< compute H_norm (false: falls and speeds only, h_norm NaN)
   std::uint64_t seed = 1;
 };
 
@@ -53,6 +62,7 @@ struct VisitationResult {
   double fall_rate = NAN;         ///< ended-by-fall / ended episodes (NaN: none ended)
   double mean_episode_length = NAN;  ///< s, over ended episodes (NaN: none ended)
   double mean_speed = NAN;        ///< m/s: horizontal root path length / time, over steps that did not end an episode
+  double mean_forward_speed = NAN;  ///< m/s: the same path projected on the root's heading (negative: backwards)
   long long episodes = 0;         ///< ended episodes
   long long falls = 0;
 };
@@ -143,7 +153,7 @@ VisitationResult evaluate_visitation(Sim& sim, const BasePolicy& policy, const t
   auto root_xy = [&](Index e) -> Eigen::Vector2d { return sim.body_states(static_cast<std::size_t>(e)).pos.col(0).template head<2>().template cast<double>(); };
   std::vector<Eigen::Vector2d> last_xy(static_cast<std::size_t>(N));
   for (Index e = 0; e < N; ++e) last_xy[static_cast<std::size_t>(e)] = root_xy(e);
-  double path = 0, moving_seconds = 0;
+  double path = 0, forward_path = 0, moving_seconds = 0;
   for (long long f = 0; f < opt.frames; ++f) {
     if (opt.deterministic) {
       policy.ac.actor.mean(task.policy_inputs(), mu, ws, scratch);
@@ -156,7 +166,9 @@ VisitationResult evaluate_visitation(Sim& sim, const BasePolicy& policy, const t
       const auto ue = static_cast<std::size_t>(e);
       const Eigen::Vector2d xy = root_xy(e);
       if (!task.terminated()[ue] && !task.truncated()[ue]) {
+        const double h = heading_angle(sim.body_states(ue).rot[0]);
         path += (xy - last_xy[ue]).norm();
+        forward_path += (xy - last_xy[ue]).dot(Eigen::Vector2d(std::cos(h), std::sin(h)));
         moving_seconds += sim.control_dt();
       }
       last_xy[ue] = xy;
@@ -170,14 +182,19 @@ VisitationResult evaluate_visitation(Sim& sim, const BasePolicy& policy, const t
     }
   }
   const auto& es = task.stats();
-  const eval::VisitationEntropy ve = eval::visitation_entropy(reference, generated, opt.threshold, opt.counting);
   VisitationResult r;
-  r.h_norm = ve.h_norm;
-  r.matched_fraction = static_cast<double>(ve.matched_generated) / static_cast<double>(generated.cols());
-  r.visited_fraction = static_cast<double>(ve.visited_reference) / static_cast<double>(reference.cols());
+  if (opt.entropy) {
+    const eval::VisitationEntropy ve = eval::visitation_entropy(reference, generated, opt.threshold, opt.counting);
+    r.h_norm = ve.h_norm;
+    r.matched_fraction = static_cast<double>(ve.matched_generated) / static_cast<double>(generated.cols());
+    r.visited_fraction = static_cast<double>(ve.visited_reference) / static_cast<double>(reference.cols());
+  } else {
+    r.h_norm = r.matched_fraction = r.visited_fraction = NAN;
+  }
   r.fall_rate = es.fall_rate();
   r.mean_episode_length = es.mean_length();
   r.mean_speed = moving_seconds > 0 ? path / moving_seconds : NAN;
+  r.mean_forward_speed = moving_seconds > 0 ? forward_path / moving_seconds : NAN;
   r.episodes = es.episodes;
   r.falls = es.falls;
   return r;
@@ -206,6 +223,99 @@ BaseEvaluation evaluate_base_policy(Sim& sim, const BasePolicy& policy, const ta
       *progress << "eval-base: " << m.to_string() << ": H_norm RSI " << row.rsi.h_norm << ", shared " << row.shared.h_norm
                 << ", fall rate " << row.rsi.fall_rate << ", speed " << row.rsi.mean_speed << " m/s" << std::endl;
     out.rows.push_back(row);
+  }
+  return out;
+}
+
+/// The reference frames of one motion class, as episode starts.
+struct ClassStarts {
+  MotionClass motion_class = MotionClass::walk;
+  std::vector<ClipTime> starts;  ///< frames of the class at time ≥ kEarliestResetTime
+  std::vector<double> weights;   ///< each frame's duration (1/fps), so clips of any frame rate count by time
+  double seconds = 0;            ///< s of reference motion of this class (the sum of the weights)
+  double mean_speed = NAN;       ///< m/s, the clips' RootMotion::speed averaged over these frames (by time)
+  double mean_forward = NAN;     ///< m/s, their forward speed likewise
+};
+
+/// The classes that have frames in `lib` (in MotionClass order), with their starts and the clips'
+/// mean speeds there.
+inline std::vector<ClassStarts> class_starts(const MotionLibrary& lib, const MotionClassThresholds& t = {}) {
+  std::vector<ClassStarts> by(kNumMotionClasses);
+  std::vector<double> speed(kNumMotionClasses, 0), forward(kNumMotionClasses, 0);
+  for (int c = 0; c < lib.num_clips(); ++c) {
+    const MotionClip& clip = lib.clip(c);
+    if (clip.num_frames() < 2) continue;
+    for (int f = 0; f < clip.num_frames(); ++f) {
+      const double time = f / clip.fps;
+      if (time < kEarliestResetTime - 1e-9) continue;  // (the first 4 frames are its history)
+      const RootMotion m = root_motion_at(clip, f, t.window_s);
+      const auto k = static_cast<std::size_t>(classify_root_motion(m, t));
+      by[k].starts.push_back({c, time});
+      by[k].weights.push_back(1.0 / clip.fps);
+      by[k].seconds += 1.0 / clip.fps;
+      speed[k] += m.speed / clip.fps;
+      forward[k] += m.forward / clip.fps;
+    }
+  }
+  std::vector<ClassStarts> out;
+  for (int k = 0; k < kNumMotionClasses; ++k) {
+    auto& cs = by[static_cast<std::size_t>(k)];
+    if (cs.starts.empty()) continue;
+    cs.motion_class = static_cast<MotionClass>(k);
+    cs.mean_speed = speed[static_cast<std::size_t>(k)] / cs.seconds;
+    cs.mean_forward = forward[static_cast<std::size_t>(k)] / cs.seconds;
+    out.push_back(std::move(cs));
+  }
+  return out;
+}
+
+/// Resets drawn (by time) from the frames of one class only.
+inline tasks::ResetSampler class_reset_sampler(std::shared_ptr<const MotionLibrary> lib, std::shared_ptr<const ClassStarts> cs) {
+  require(cs && !cs->starts.empty(), "no frames of this class to start from", {{}, {}, "motion class"});
+  return [lib, cs](Rng& rng) { return reset_sample_at(*lib, cs->starts[draw_weighted(cs->weights, rng)]); };
+}
+
+/// Falls and speeds of one (mask, starting class).
+struct ClassEvaluation {
+  PartMask mask;
+  MotionClass motion_class = MotionClass::walk;
+  double reference_seconds = 0;        ///< s of the clips in this class
+  double reference_speed = NAN;        ///< m/s, the clips' mean speed in this class
+  double reference_forward = NAN;      ///< m/s, their mean forward speed
+  VisitationResult result;             ///< H_norm not computed (NaN)
+  /// the policy's mean speed over the clips' (NaN without motion)
+  double speed_ratio() const { return result.mean_speed / reference_speed; }
+};
+
+/// Every mask of opt.masks (empty: the null mask and both legs) × every class with frames in
+/// `lib`: episodes start only from that class's frames (class_reset_sampler); the same seed for
+/// every cell. H_norm is not computed.
+template <Simulator Sim>
+std::vector<ClassEvaluation> evaluate_by_start_class(Sim& sim, const BasePolicy& policy, std::shared_ptr<const MotionLibrary> lib,
+                                                     EvalBaseOptions opt, std::optional<FallCriteria> fall = std::nullopt,
+                                                     double min_head_height = 0.3, ThreadPool* pool = nullptr,
+                                                     std::ostream* progress = nullptr, const MotionClassThresholds& t = {}) {
+  opt.entropy = false;
+  const std::vector<PartMask> masks = opt.masks.empty() ? std::vector<PartMask>{PartMask::none(), PartMask::parse("legs", "masks")} : opt.masks;
+  const MatrixXf no_reference(3 * (sim.skeleton().num_bodies() - 1), 0);  // (visitation feature rows × 0): no H_norm
+  std::vector<ClassEvaluation> out;
+  for (ClassStarts& cs : class_starts(*lib, t)) {
+    auto shared = std::make_shared<const ClassStarts>(std::move(cs));
+    const tasks::ResetSampler reset = class_reset_sampler(lib, shared);
+    for (PartMask m : masks) {
+      ClassEvaluation e;
+      e.mask = m;
+      e.motion_class = shared->motion_class;
+      e.reference_seconds = shared->seconds;
+      e.reference_speed = shared->mean_speed;
+      e.reference_forward = shared->mean_forward;
+      e.result = evaluate_visitation(sim, policy, reset, m, no_reference, opt, fall, min_head_height, pool);
+      if (progress)
+        *progress << "eval-base: " << m.to_string() << " from " << to_string(e.motion_class) << ": fall rate "
+                  << e.result.fall_rate << ", speed " << e.result.mean_speed << " m/s (clips " << e.reference_speed << ")"
+                  << std::endl;
+      out.push_back(e);
+    }
   }
   return out;
 }
@@ -266,14 +376,33 @@ inline std::string format_episode_table(const BaseEvaluation& ev) {
   return s.str();
 }
 
+/// One line per (mask, starting class): seconds of the clips there, episodes, falls, the
+/// policy's speed and forward speed beside the clips', and the speed ratio.
+inline std::string format_class_table(const std::vector<ClassEvaluation>& rows) {
+  std::ostringstream s;
+  char buf[240];
+  std::snprintf(buf, sizeof buf, "%-22s %-9s %8s %9s %6s %9s %8s %8s %8s %8s %7s\n", "mask", "class", "clips s", "episodes",
+                "falls", "fall rate", "speed", "clips'", "forward", "clips'", "ratio");
+  s << buf;
+  for (const auto& r : rows) {
+    std::snprintf(buf, sizeof buf, "%-22s %-9s %8.1f %9lld %6lld %9.3f %8.2f %8.2f %8.2f %8.2f %7.2f\n", r.mask.to_string().c_str(),
+                  to_string(r.motion_class).c_str(), r.reference_seconds, r.result.episodes, r.result.falls, r.result.fall_rate,
+                  r.result.mean_speed, r.reference_speed, r.result.mean_forward_speed, r.reference_forward, r.speed_ratio());
+    s << buf;
+  }
+  s << "speeds in m/s (forward: along the root's heading, negative backwards); ratio = speed / clips' speed\n";
+  return s.str();
+}
+
 inline nlohmann::json to_json(const VisitationResult& r) {
   auto num = [](double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr); };
-  return {{"h_norm", r.h_norm},
-          {"matched_fraction", r.matched_fraction},
-          {"visited_fraction", r.visited_fraction},
+  return {{"h_norm", num(r.h_norm)},
+          {"matched_fraction", num(r.matched_fraction)},
+          {"visited_fraction", num(r.visited_fraction)},
           {"fall_rate", num(r.fall_rate)},
           {"mean_episode_length", num(r.mean_episode_length)},
           {"mean_speed", num(r.mean_speed)},
+          {"mean_forward_speed", num(r.mean_forward_speed)},
           {"episodes", r.episodes},
           {"falls", r.falls}};
 }
@@ -319,6 +448,19 @@ inline nlohmann::json to_json(const BaseEvaluation& ev) {
       if (r.mask.empty()) j[shared ? "null_shared" : "null_rsi"] = shared ? r.shared.h_norm : r.rsi.h_norm;
   }
   return j;
+}
+
+/// JSON rows of the per-class evaluation.
+inline nlohmann::json to_json(const std::vector<ClassEvaluation>& rows) {
+  nlohmann::json a = nlohmann::json::array();
+  for (const auto& r : rows)
+    a.push_back({{"mask", r.mask.to_string()},
+                 {"class", to_string(r.motion_class)},
+                 {"clip_seconds", r.reference_seconds},
+                 {"clip_speed", r.reference_speed},
+                 {"clip_forward_speed", r.reference_forward},
+                 {"result", to_json(r.result)}});
+  return a;
 }
 
 }  // namespace maskadapt::train
