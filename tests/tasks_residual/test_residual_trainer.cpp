@@ -57,6 +57,13 @@ TEST(ResidualTrainer, BaseStaysFrozenWhileTheResidualLearns) {
       for (double v : {st.disc_reward, st.disc_real, st.disc_fake, st.policy_loss, st.value_loss, st.approx_kl})
         EXPECT_TRUE(std::isfinite(v)) << method;
       EXPECT_GT(st.disc_grad_penalty, 0.0) << method;  // the penalty is applied, and logged
+      // the update's time split (fields, so that runs' `extra` maps stay comparable)
+      EXPECT_GT(st.time_ppo, 0.0) << method;
+      EXPECT_GT(st.time_disc_reward, 0.0) << method;
+      EXPECT_LE(st.time_ppo + st.time_disc, st.time_update) << method;
+      EXPECT_LE(st.time_disc_reward, st.time_disc) << method;
+      EXPECT_EQ(st.time_disc_real_windows, 0.0) << method;
+      EXPECT_EQ(st.extra.count("time_ppo"), 0u) << method;
     }
     EXPECT_EQ(tr.num_objectives(), method == "ours" ? 1 : 2);
     EXPECT_TRUE(same_bits(tr.policy().base().mean_net.params(), base.mean_net.params())) << method;

@@ -374,6 +374,12 @@ TEST(BaseTrainer, IterationStatisticsAreFiniteAndConsistent) {
     EXPECT_GT(s.disc_real, 0.0);
     EXPECT_LT(s.disc_real, 1.0);
     EXPECT_EQ(s.skipped_updates, 0);
+    // the update's time split: PPO and the discriminator are disjoint parts of the update, the
+    // reward pass and the real windows parts of the discriminator's time
+    for (double part : {s.time_ppo, s.time_disc, s.time_disc_reward, s.time_disc_real_windows}) EXPECT_GT(part, 0.0);
+    EXPECT_LE(s.time_ppo + s.time_disc, s.time_update);
+    EXPECT_LE(s.time_disc_reward + s.time_disc_real_windows, s.time_disc);
+    EXPECT_EQ(s.extra.count("time_ppo") + s.extra.count("time_disc_reward"), 0u);  // (fields, not extra keys)
   }
 }
 

@@ -67,7 +67,8 @@ TEST(TrainProgress, JsonlLogWritesOneParsableObjectPerLine) {
     EXPECT_EQ(j.at("iteration").get<int>(), n);
     for (const char* key : {"samples", "samples_per_s", "episode_length", "disc_reward", "disc_real", "disc_fake",
                             "mi_kl", "policy_loss", "value_loss", "entropy", "approx_kl", "clip_frac", "grad_norm",
-                            "time_sim", "time_inference", "time_update", "time_disc", "skipped_updates"})
+                            "time_sim", "time_inference", "time_update", "time_disc", "time_ppo", "time_disc_reward",
+                            "time_disc_real_windows", "skipped_updates"})
       EXPECT_TRUE(j.contains(key)) << key;
     if (n == 2) {
       EXPECT_TRUE(j.at("episode_length").is_null());  // NaN → null, still valid JSON

@@ -195,11 +195,11 @@ class BaseTrainer {
     Stopwatch disc_rewards;
     compute_rewards(st);
     st.time_disc += disc_rewards.seconds();
-    st.extra["time_disc_reward"] = disc_rewards.seconds();
+    st.time_disc_reward = disc_rewards.seconds();
     Stopwatch ppo;
     rl::compute_gae(buf_, rl::GaeParams{cfg_.ppo.gamma, cfg_.ppo.gae_lambda});
     update_policy(st);
-    st.extra["time_ppo"] = ppo.seconds();  // (GAE, PPO and the MI term)
+    st.time_ppo = ppo.seconds();  // (GAE, PPO and the MI term)
     Stopwatch disc_update;
     update_discriminator(st);
     st.time_disc += disc_update.seconds();
@@ -564,7 +564,7 @@ class BaseTrainer {
       sum_gp += ds.grad_penalty;
     }
     replay_.push(amp);
-    st.extra["time_disc_real_windows"] = real_seconds;  // (part of time_disc: drawing the real windows)
+    st.time_disc_real_windows = real_seconds;  // (part of time_disc: drawing the real windows)
     st.disc_real = sum_real / static_cast<double>(steps);
     st.disc_fake = sum_fake / static_cast<double>(steps);
     st.disc_loss = sum_loss / static_cast<double>(steps);

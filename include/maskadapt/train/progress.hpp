@@ -59,6 +59,9 @@ struct IterationStats {
   double time_inference = 0;
   double time_update = 0;
   double time_disc = 0;           ///< part of time_update: discriminator rewards + updates
+  double time_ppo = 0;            ///< part of time_update: GAE and PPO (with stage 1's MI term)
+  double time_disc_reward = 0;    ///< part of time_disc: the reward pass on the rollout (stage 2: with the tracking terms)
+  double time_disc_real_windows = 0;  ///< part of time_disc: drawing the real windows (stage 1; 0 in stage 2)
   double time_total = 0;
   long long skipped_updates = 0;  ///< non-finite update steps skipped in this iteration
   long long sim_resets = 0;       ///< envs reset by the simulator because physics went non-finite
@@ -135,6 +138,9 @@ inline nlohmann::json to_json(const IterationStats& s) {
           {"time_inference", num(s.time_inference)},
           {"time_update", num(s.time_update)},
           {"time_disc", num(s.time_disc)},
+          {"time_ppo", num(s.time_ppo)},
+          {"time_disc_reward", num(s.time_disc_reward)},
+          {"time_disc_real_windows", num(s.time_disc_real_windows)},
           {"time_total", num(s.time_total)},
           {"skipped_updates", s.skipped_updates},
           {"sim_resets", s.sim_resets},

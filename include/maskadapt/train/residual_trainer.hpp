@@ -232,9 +232,12 @@ class ResidualTrainer {
     Stopwatch upd;
     Stopwatch disc_rewards;
     compute_rewards(st);  // (the tracking task's reward terms are timed with the discriminators')
-    st.time_disc += disc_rewards.seconds();
+    st.time_disc_reward = disc_rewards.seconds();
+    st.time_disc += st.time_disc_reward;
+    Stopwatch ppo;
     rl::compute_gae(buf_, rl::GaeParams{cfg_.rl.ppo.gamma, cfg_.rl.ppo.gae_lambda});
     learner_.update(policy_, buf_, weights_, cfg_.rl.ppo, rng_, st, ranks());  // 3. PPO on the residual
+    st.time_ppo = ppo.seconds();  // (GAE and PPO)
     Stopwatch disc_update;
     discs_.update(buf_.amp_windows, buf_.masks, rng_, st, ranks());
     st.time_disc += disc_update.seconds();
