@@ -26,7 +26,7 @@
 #include <maskadapt/motion/motion_class.hpp>
 #include <maskadapt/tasks/imitation.hpp>
 #include <maskadapt/train/base_policy.hpp>
-#include <maskadapt/train/motion_sources.hpp>
+#include <maskadapt/train/library_reset.hpp>
 
 #include <nlohmann/json.hpp>
 

@@ -11,6 +11,7 @@
 #include <maskadapt/tasks/composition.hpp>
 #include <maskadapt/tasks/imitation.hpp>
 #include <maskadapt/train/base_trainer.hpp>
+#include <maskadapt/train/library_reset.hpp>
 
 #include <algorithm>
 #include <filesystem>
@@ -61,25 +62,7 @@ inline std::shared_ptr<MotionLibrary> load_motion_library(const std::vector<std:
   return lib;
 }
 
-/// Earliest time of a clip an episode may start at: the 4 frames before it are its AMP history (s).
-inline constexpr double kEarliestResetTime = (kAmpWindowFrames - 1) * kAmpFrameDt;
-
-/// The reset sample at (clip, time ≥ kEarliestResetTime): the pose plus the observations of the 4
-/// frames before it.
-inline tasks::ResetSample reset_sample_at(const MotionLibrary& lib, ClipTime ct) {
-  tasks::ResetSample r;
-  r.pose = lib.state(ct.clip, ct.time);
-  const Index d = observation_dim(lib.skeleton());
-  VectorXf w(lib.amp_window_dim());
-  lib.amp_window(ct.clip, ct.time - kAmpFrameDt, w);  // frames t−5Δ … t−Δ; keep the last 4
-  r.history = Eigen::Map<const MatrixXf>(w.data() + d, d, kAmpWindowFrames - 1);
-  return r;
-}
-
-/// RSI from the library: a (clip, time ≥ 4Δ) pose plus the observations of the 4 frames before it.
-inline tasks::ResetSampler library_reset_sampler(std::shared_ptr<const MotionLibrary> lib) {
-  return [lib](Rng& rng) { return reset_sample_at(*lib, lib->sample(rng, true, kEarliestResetTime)); };
-}
+// (reset_sample_at and library_reset_sampler: train/library_reset.hpp)
 
 /// RSI for composition: a share `from_blends` of the resets (a Bernoulli draw per reset) starts
 /// from the part-wise blends — a mask of the set drawn uniformly, then a (clip, time) of its blend
