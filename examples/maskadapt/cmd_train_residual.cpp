@@ -322,6 +322,8 @@ void run_train_residual(const Args& a) {
     if (c.task == "tracking") {  // the preset's tracking settings where no flag says otherwise (train/goal_recipe.hpp)
       const TrackingRecipe t = tracking_recipe(a.preset.empty() ? "cpu" : a.preset);
       if (a.objective_weights.empty()) c.objective_weights = t.objective_weights;
+      if (a.tracking_reward_scale <= 0) c.tracking_reward_scale = t.reward_scale;
+      if (a.term_threshold < 0) c.term_threshold = t.term_threshold;
       if (a.residual_std < 0 && a.part_std.empty() && t.designated_std > 0) {  // (--residual-std 0: the base's σ)
         const PartMask designated = PartMask::parse(c.designated, "--designated");
         for (int p = 0; p < kNumParts; ++p)

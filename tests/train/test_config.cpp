@@ -5,6 +5,7 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -247,6 +248,10 @@ TEST(GoalRecipe, PresetsGiveTheRecipeOrThePapersGoalRewards) {
   const TrackingRecipe tracking = tracking_recipe("cpu");  // partial tracking: the goal weight and σ 0.5 on the designated parts
   EXPECT_EQ(tracking.objective_weights, (std::vector<double>{0.1, 0.9}));
   EXPECT_EQ(tracking.designated_std, 0.5);
+  EXPECT_EQ(tracking.reward_scale, 2.0);  // exp(−2·Σ angle²), ended where the paper's exp(−Σ angle²) < 0.05 ends it:
+  EXPECT_NEAR(-std::log(tracking.term_threshold) / tracking.reward_scale, -std::log(0.05), 1e-12);
+  EXPECT_EQ(tracking_recipe("paper").reward_scale, 1.0);
+  EXPECT_EQ(tracking_recipe("paper").term_threshold, 0.05);
   EXPECT_TRUE(tracking_recipe("paper").objective_weights.empty());  // the paper's 0.5 / 0.5
   EXPECT_EQ(tracking_recipe("paper").designated_std, 0.0);            // the base's σ
   try {
