@@ -75,7 +75,7 @@ goal_cell_args() {
 # train-residual's default (--preset cpu) is the stage-2 recipe: the paper's objective weights (ours
 # composing B: 1 0.5; CML-style / AdaptNet composing B: 0.5 0.5 0.5; without B and tracking: 0.5 0.5), no
 # shaping term, strike's one box per episode that any body may touch, and tracking's residual at the
-# base's σ. COMPOSES is 1 when the run composes a motion B. Flags already among FLAGS (a
+# base's σ with the reward exp(−Σ angle²) ended below 0.05. COMPOSES is 1 when the run composes a motion B. Flags already among FLAGS (a
 # variant's own) are left out, so that a variant changes one thing on top of the paper's formulation.
 paper_formulation_args() {
   local task=$1 method=$2 composes=$3
@@ -97,5 +97,8 @@ paper_formulation_args() {
   if [[ $task == tracking && $given != *" --residual-std "* && $given != *" --part-std "* ]]; then
     out="$out --residual-std 0"
   fi
+  # (and since 2026-12-08: the reward exp(-2·Σ angle²), ended below 0.0025; the paper's k 1 and 0.05)
+  if [[ $task == tracking && $given != *" --tracking-reward-scale "* ]]; then out="$out --tracking-reward-scale 1"; fi
+  if [[ $task == tracking && $given != *" --term-threshold "* ]]; then out="$out --term-threshold 0.05"; fi
   echo "$out"
 }
