@@ -53,6 +53,14 @@ execute_process(COMMAND timeout --preserve-status -s TERM 6 ${CLI} train-base --
 if(NOT rc EQUAL 0 OR NOT out MATCHES "stop requested: checkpoint at iteration [1-9]")
   message(FATAL_ERROR "train-base did not stop cleanly on SIGTERM (${rc}): ${out}${err}")
 endif()
+# the same request delivered twice at once (as `timeout` does: the command, then its process
+# group) still stops cleanly (tests/train/test_stop_signals.cpp: the handler itself)
+execute_process(COMMAND bash -c "\"$0\" train-base --config \"$1\" --out \"$2\" --iterations 1000000 --checkpoint-every 1000000 & pid=$!; sleep 3; kill -TERM $pid; kill -TERM $pid; wait $pid"
+                        ${CLI} ${CONFIG} ${OUT}/twice
+                RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err)
+if(NOT rc EQUAL 0 OR NOT out MATCHES "stop requested: checkpoint at iteration [1-9]")
+  message(FATAL_ERROR "train-base did not stop cleanly on two SIGTERMs at once (${rc}): ${out}${err}")
+endif()
 execute_process(COMMAND ${CLI} checkpoint compact ${OUT}/stopped/checkpoint.bin --out ${OUT}/stopped/compact.bin
                 RESULT_VARIABLE rc OUTPUT_VARIABLE out)
 if(NOT rc EQUAL 0 OR NOT out MATCHES "at iteration [1-9]")
