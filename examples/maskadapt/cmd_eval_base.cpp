@@ -72,6 +72,7 @@ void run_eval_base(const EvalBaseArgs& a) {
   opt.deterministic = a.deterministic;
   opt.seed = static_cast<std::uint64_t>(a.seed);
   opt.masks = masks;
+  opt.rise_height = clips_median_root_height(*lib);  // rising seconds: issue 41's jump measure
   std::cout << "eval-base: " << a.checkpoint << " (" << character.name << ", iteration " << loaded.iteration
             << (loaded.policy_only ? ", model (policy only)" : "") << ", masking "
             << (loaded.config.mask.enabled ? "on" : "off") << ", lambda_MI " << loaded.config.mask.lambda_mi << "); "
@@ -83,6 +84,7 @@ void run_eval_base(const EvalBaseArgs& a) {
                                            character.fall_criteria(loaded.config.env.termination_height),
                                            loaded.config.env.termination_height, &pool, &std::cout);
   ev.reference_speed = reference_mean_speed(*lib);
+  ev.reference_rise_fraction = clips_rise_fraction(*lib, opt.rise_height, opt.rise_clearance);
   std::cout << "\n";
   if (opt.masks.empty()) std::cout << format_hnorm_table(ev, false) << "\n" << format_hnorm_table(ev, true) << "\n";
   std::cout << format_episode_table(ev);

@@ -388,3 +388,37 @@ TEST(EvalBase, PerClassStartsComeOnlyFromTheirClassAndReportTheClipsSpeed) {
   EXPECT_EQ(j[2]["result"]["episodes"].get<long long>(), rows[2].result.episodes);
   EXPECT_TRUE(j[2]["result"]["h_norm"].is_null());
 }
+
+// Rising seconds (issue 41's jump measure): the clips' median root height and their share of whole
+// seconds whose highest root point clears it by 0.1 m, on a 61-frame 30-Hz clip (two whole
+// seconds; the partial third is left out) that rises to 1.05 m in frames 40–45 only → 0.5; in the
+// simulator the share is 1 for a height far below the root, 0 far above it, and not measured
+// (NaN) without one.
+TEST(EvalBase, RisingSecondsOfTheClipsAndOfThePolicy) {
+  MotionLibrary lib(humanoid_skeleton());
+  MotionClip c;
+  c.name = "rise";
+  c.fps = 30;
+  c.resize(61, humanoid_skeleton().num_dofs());
+  for (int t = 0; t < 61; ++t) c.root_pos.col(t) = Vec3(0, 0, t >= 40 && t <= 45 ? 1.05 : 0.9);
+  lib.add(c);
+  EXPECT_DOUBLE_EQ(clips_median_root_height(lib), 0.9);
+  EXPECT_DOUBLE_EQ(clips_rise_fraction(lib, 0.9, 0.1), 0.5);
+  EXPECT_DOUBLE_EQ(clips_rise_fraction(lib, 0.96, 0.1), 0.0);  // 1.05 < 1.06
+  EXPECT_DOUBLE_EQ(clips_rise_fraction(lib, 0.0, 0.1), 1.0);
+
+  Fixture f(2);
+  EvalBaseOptions opt;
+  opt.frames = 70;  // two whole seconds per env at 30 Hz, and no episode ends (no fall, 10-s limit)
+  opt.episode_seconds = 10;
+  const FallCriteria never = FallCriteria::for_skeleton(f.sim.skeleton(), {"l_leg", "r_leg"}, "head", -100.0);
+  const auto reset = upright_jittered(f.sim.skeleton());
+  const MatrixXf ref = random_upright_reference(f.sim.skeleton(), reset, 5);
+  const auto none = evaluate_visitation(f.sim, f.policy, reset, PartMask::none(), ref, opt, never);
+  EXPECT_TRUE(std::isnan(none.rise_fraction));
+  EXPECT_EQ(none.episodes, 0);
+  opt.rise_height = -10;
+  EXPECT_EQ(evaluate_visitation(f.sim, f.policy, reset, PartMask::none(), ref, opt, never).rise_fraction, 1.0);
+  opt.rise_height = 10;
+  EXPECT_EQ(evaluate_visitation(f.sim, f.policy, reset, PartMask::none(), ref, opt, never).rise_fraction, 0.0);
+}

@@ -19,6 +19,12 @@
 /// turn); for each class with frames, episodes start (and restart after a fall) only from frames
 /// of that class, and their falls, speed and forward speed are set beside the clips' own mean
 /// speed and forward speed over those frames.
+///
+/// Jumping (`rise_height`, issue 41): each episode is cut into whole seconds from its start; a
+/// second *rises* when the root's highest point in it is at least `rise_clearance` (0.1 m) above
+/// `rise_height` (the CLI gives the clips' median root height). The share of rising seconds is
+/// reported beside the same share of the clips (clips_rise_fraction), so "it jumps like its
+/// clips" is one comparison; a walker rises in none.
 #include <maskadapt/core/error.hpp>
 #include <maskadapt/core/rng.hpp>
 #include <maskadapt/eval/visitation_entropy.hpp>
@@ -30,6 +36,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <optional>
@@ -51,6 +58,8 @@ struct EvalBaseOptions {
   std::vector<PartMask> masks;
   bool deterministic = false;    ///< policy mean instead of samples
   bool entropy = true;           ///< compute H_norm (false: falls and speeds only, h_norm NaN)
+  double rise_height = NAN;      ///< m; finite: count the seconds whose highest root point is ≥ rise_height + rise_clearance
+  double rise_clearance = 0.1;   ///< m
   std::uint64_t seed = 1;
 };
 
@@ -63,6 +72,7 @@ struct VisitationResult {
   double mean_episode_length = NAN;  ///< s, over ended episodes (NaN: none ended)
   double mean_speed = NAN;        ///< m/s: horizontal root path length / time, over steps that did not end an episode
   double mean_forward_speed = NAN;  ///< m/s: the same path projected on the root's heading (negative: backwards)
+  double rise_fraction = NAN;     ///< whole seconds of episodes in which the root rose (file comment); NaN: not measured or none
   long long episodes = 0;         ///< ended episodes
   long long falls = 0;
 };
@@ -78,6 +88,7 @@ struct BaseEvaluation {
   long long reference_frames = 0;
   long long generated_frames_per_mask = 0;
   double reference_speed = NAN;  ///< m/s, the clips' mean horizontal root speed (reference_mean_speed; NaN: not given)
+  double reference_rise_fraction = NAN;  ///< the clips' share of rising seconds at options.rise_height (NaN: not given)
   EvalBaseOptions options;
 };
 
@@ -93,6 +104,32 @@ inline double reference_mean_speed(const MotionLibrary& lib) {
   }
   require(seconds > 0, "the motion library has no frames", {{}, {}, "reference"});
   return path / seconds;
+}
+
+/// Median root height of every frame of the clips (m): what eval-base measures rises from.
+inline double clips_median_root_height(const MotionLibrary& lib) {
+  std::vector<double> z;
+  for (int c = 0; c < lib.num_clips(); ++c)
+    for (Index f = 0; f < lib.clip(c).num_frames(); ++f) z.push_back(lib.clip(c).root_pos(2, f));
+  require(!z.empty(), "the motion library has no frames", {{}, {}, "reference"});
+  std::nth_element(z.begin(), z.begin() + static_cast<std::ptrdiff_t>(z.size() / 2), z.end());
+  return z[z.size() / 2];
+}
+
+/// The clips' share of rising seconds: each clip cut into whole seconds from its first frame (the
+/// last, partial second left out), a second rising when its highest root point is ≥ height +
+/// clearance. NaN when no clip lasts a second.
+inline double clips_rise_fraction(const MotionLibrary& lib, double height, double clearance = 0.1) {
+  long long counted = 0, risen = 0;
+  for (int c = 0; c < lib.num_clips(); ++c) {
+    const MotionClip& clip = lib.clip(c);
+    const int per = std::max(1, static_cast<int>(std::lround(clip.fps)));
+    for (int start = 0; start + per <= clip.num_frames(); start += per) {
+      ++counted;
+      risen += clip.root_pos.row(2).segment(start, per).maxCoeff() >= height + clearance;
+    }
+  }
+  return counted > 0 ? static_cast<double>(risen) / static_cast<double>(counted) : NAN;
 }
 
 /// The masks of the table: none, then {p} for each part, then {p, q} for p < q.
@@ -154,6 +191,11 @@ VisitationResult evaluate_visitation(Sim& sim, const BasePolicy& policy, const t
   std::vector<Eigen::Vector2d> last_xy(static_cast<std::size_t>(N));
   for (Index e = 0; e < N; ++e) last_xy[static_cast<std::size_t>(e)] = root_xy(e);
   double path = 0, forward_path = 0, moving_seconds = 0;
+  // rising seconds: per env, the highest root point of the current second of its episode
+  const long long steps_per_second = std::max(1LL, std::llround(1.0 / sim.control_dt()));
+  std::vector<double> second_top(static_cast<std::size_t>(N), -INFINITY);
+  std::vector<long long> second_steps(static_cast<std::size_t>(N), 0);
+  long long seconds_counted = 0, seconds_risen = 0;
   for (long long f = 0; f < opt.frames; ++f) {
     if (opt.deterministic) {
       policy.ac.actor.mean(task.policy_inputs(), mu, ws, scratch);
@@ -170,6 +212,16 @@ VisitationResult evaluate_visitation(Sim& sim, const BasePolicy& policy, const t
         path += (xy - last_xy[ue]).norm();
         forward_path += (xy - last_xy[ue]).dot(Eigen::Vector2d(std::cos(h), std::sin(h)));
         moving_seconds += sim.control_dt();
+        second_top[ue] = std::max(second_top[ue], static_cast<double>(sim.body_states(ue).pos(2, 0)));
+        if (++second_steps[ue] == steps_per_second) {
+          ++seconds_counted;
+          seconds_risen += second_top[ue] >= opt.rise_height + opt.rise_clearance;
+          second_steps[ue] = 0;
+          second_top[ue] = -INFINITY;
+        }
+      } else {  // a new episode: its first second starts now
+        second_steps[ue] = 0;
+        second_top[ue] = -INFINITY;
       }
       last_xy[ue] = xy;
     }
@@ -195,6 +247,9 @@ VisitationResult evaluate_visitation(Sim& sim, const BasePolicy& policy, const t
   r.mean_episode_length = es.mean_length();
   r.mean_speed = moving_seconds > 0 ? path / moving_seconds : NAN;
   r.mean_forward_speed = moving_seconds > 0 ? forward_path / moving_seconds : NAN;
+  r.rise_fraction = std::isfinite(opt.rise_height) && seconds_counted > 0
+                        ? static_cast<double>(seconds_risen) / static_cast<double>(seconds_counted)
+                        : NAN;
   r.episodes = es.episodes;
   r.falls = es.falls;
   return r;
@@ -360,13 +415,26 @@ inline std::string format_hnorm_table(const BaseEvaluation& ev, bool shared) {
 inline std::string format_episode_table(const BaseEvaluation& ev) {
   std::ostringstream s;
   char buf[200];
-  std::snprintf(buf, sizeof buf, "%-22s %10s %11s %12s %12s %14s %14s\n", "mask", "fall(RSI)", "len(RSI) s",
+  const bool rise = std::isfinite(ev.options.rise_height);
+  std::snprintf(buf, sizeof buf, "%-22s %10s %11s %12s %12s %14s %14s", "mask", "fall(RSI)", "len(RSI) s",
                 "speed(RSI)", "fall(shared)", "len(shared) s", "speed(shared)");
-  s << buf;
+  s << buf << (rise ? "   rise(RSI) rise(shared)\n" : "\n");
   for (const auto& r : ev.rows) {
-    std::snprintf(buf, sizeof buf, "%-22s %10.3f %11.2f %12.2f %12.3f %14.2f %14.2f\n", r.mask.to_string().c_str(),
+    std::snprintf(buf, sizeof buf, "%-22s %10.3f %11.2f %12.2f %12.3f %14.2f %14.2f", r.mask.to_string().c_str(),
                   r.rsi.fall_rate, r.rsi.mean_episode_length, r.rsi.mean_speed, r.shared.fall_rate,
                   r.shared.mean_episode_length, r.shared.mean_speed);
+    s << buf;
+    if (rise) {
+      std::snprintf(buf, sizeof buf, " %11.3f %12.3f", r.rsi.rise_fraction, r.shared.rise_fraction);
+      s << buf;
+    }
+    s << "\n";
+  }
+  if (rise) {
+    std::snprintf(buf, sizeof buf,
+                  "rise: share of whole seconds in which the root rose >= %.2f m above %.3f m (the clips' median root "
+                  "height); the clips: %.3f\n",
+                  ev.options.rise_clearance, ev.options.rise_height, ev.reference_rise_fraction);
     s << buf;
   }
   if (std::isfinite(ev.reference_speed)) {
@@ -403,6 +471,7 @@ inline nlohmann::json to_json(const VisitationResult& r) {
           {"mean_episode_length", num(r.mean_episode_length)},
           {"mean_speed", num(r.mean_speed)},
           {"mean_forward_speed", num(r.mean_forward_speed)},
+          {"rise_fraction", num(r.rise_fraction)},
           {"episodes", r.episodes},
           {"falls", r.falls}};
 }
@@ -423,6 +492,10 @@ inline nlohmann::json to_json(const BaseEvaluation& ev) {
   j["reference_frames"] = ev.reference_frames;
   j["generated_frames_per_mask"] = ev.generated_frames_per_mask;
   j["reference_speed"] = std::isfinite(ev.reference_speed) ? nlohmann::json(ev.reference_speed) : nlohmann::json(nullptr);
+  j["rise_height"] = std::isfinite(ev.options.rise_height) ? nlohmann::json(ev.options.rise_height) : nlohmann::json(nullptr);
+  j["rise_clearance"] = ev.options.rise_clearance;
+  j["reference_rise_fraction"] =
+      std::isfinite(ev.reference_rise_fraction) ? nlohmann::json(ev.reference_rise_fraction) : nlohmann::json(nullptr);
   j["masks"] = nlohmann::json::array();
   for (const auto& r : ev.rows)
     j["masks"].push_back({{"mask", r.mask.to_string()}, {"bits", r.mask.bits}, {"rsi", to_json(r.rsi)}, {"shared", to_json(r.shared)}});
