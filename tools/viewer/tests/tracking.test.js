@@ -13,7 +13,6 @@ import fs from 'node:fs';
 import path from 'node:path';
 import { fileURLToPath } from 'node:url';
 import { computeObservation, observationDim, observationParts, parseMask, PART_NAMES } from '../src/live/features.js';
-import { posteriorMean } from '../src/live/diffusion.js';
 import { loadGenerator } from '../src/live/generator.js';
 import { appendTrajectory, canonicalize, makeSkeleton, quatToMatrix, sliceTrajectory, trajectoryFromJson, transformToWorld } from '../src/live/kinematics.js';
 import { loadPolicy } from '../src/live/policy.js';
@@ -143,11 +142,7 @@ describe('generator equals the C++ step by step', () => {
         else expect(rec.unconditional || gen.guidance === 1).toBe(true);
         expectClose(p.x0, st.x0_hat, ONE_STEP, `${w}: guided x0`, 'one step: x0');
         // x_(t-1) = posterior mean of the C++'s x0_hat and x_t, plus σ_t z with the recorded z
-        const next = posteriorMean(gen.schedule, st.t, Float32Array.from(st.x0_hat), Float32Array.from(st.x_t));
-        if (st.noise) {
-          const sigma = gen.noiseScale(st.t);
-          for (let i = 0; i < next.length; ++i) next[i] = Math.fround(next[i] + Math.fround(sigma * Math.fround(st.noise[i])));
-        }
+        const next = gen.previousLatent(st.t, Float32Array.from(st.x0_hat), Float32Array.from(st.x_t), st.noise && Float32Array.from(st.noise));
         expectClose(next, st.x_next, ONE_STEP, `${w}: x_(t-1)`, 'one step: x_(t-1)');
       }
     }

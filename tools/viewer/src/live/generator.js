@@ -184,6 +184,16 @@ export class Generator {
     return Math.fround(this.temperature === 1 ? sd : Math.fround(this.temperature) * Math.fround(sd));
   }
 
+  /** x_{t−1}: the posterior mean of x̂₀ and x_t, plus noiseScale(t)·z for t > 0 (z: L normals, null at t = 0). */
+  previousLatent(t, x0, xt, z) {
+    const next = posteriorMean(this.schedule, t, x0, xt);
+    if (z) {
+      const sigma = this.noiseScale(t);
+      for (let i = 0; i < next.length; ++i) next[i] = Math.fround(next[i] + Math.fround(sigma * z[i]));
+    }
+    return next;
+  }
+
   /**
    * Latent (L) for normalised history hn and text features tf: guided DDPM with normals from
    * `noise`, times latent_scale. `trace` (optional) receives every intermediate.
@@ -200,16 +210,12 @@ export class Generator {
     for (let t = s.numSteps - 1; t >= 0; --t) {
       const p = this.predictX0(ctx, x, t);
       for (let i = 0; i < L; ++i) if (!Number.isFinite(p.x0[i])) throw new Error(`generator: the denoiser's x0_hat is not finite at step ${t}`);
-      const next = posteriorMean(s, t, p.x0, x);
       let z = null;
       if (t > 0) {
-        const sigma = this.noiseScale(t);
         z = new Float32Array(L);
-        for (let i = 0; i < L; ++i) {
-          z[i] = Math.fround(noise.normal());
-          next[i] = Math.fround(next[i] + Math.fround(sigma * z[i]));
-        }
+        for (let i = 0; i < L; ++i) z[i] = Math.fround(noise.normal());
       }
+      const next = this.previousLatent(t, p.x0, x, z);
       if (trace) steps.push({ t, xt: x, cond: p.cond, uncond: p.uncond, x0: p.x0, noise: z, next });
       x = next;
     }
