@@ -181,7 +181,7 @@ VisitationResult evaluate_visitation(Sim& sim, const BasePolicy& policy, const t
   const Skeleton& skel = sim.skeleton();
   const Index N = task.num_envs();
   const Index d = reference.rows();
-  MatrixXf generated(d, N * static_cast<Index>(opt.frames));
+  MatrixXf generated(d, opt.entropy ? N * static_cast<Index>(opt.frames) : 0);  // (without H_norm: no frames kept)
   Rng act_rng = Rng::stream(opt.seed, 0xE7A1ULL);
   nn::InferenceWorkspace<float> ws;
   MatrixXf actions(task.action_dim(), N), mu(task.action_dim(), N), scratch;
@@ -226,7 +226,7 @@ VisitationResult evaluate_visitation(Sim& sim, const BasePolicy& policy, const t
       last_xy[ue] = xy;
     }
     // the frame after this step (for an env whose episode just ended: the new episode's first frame)
-    for (Index e = 0; e < N; ++e) {
+    for (Index e = 0; opt.entropy && e < N; ++e) {
       const VectorXf v = visitation_features(skel, sim.body_states(static_cast<std::size_t>(e)));
       require(v.size() == d, "visitation features have " + std::to_string(v.size()) + " rows, reference has " +
                                  std::to_string(d), {{}, {}, "reference"});
